@@ -1,0 +1,67 @@
+// `rectify map-thesis`: the thesis's R(x) curve as a map file (maps/).
+#include <cstdio>
+
+#include "app/commands.h"
+#include "common/io.h"
+#include "common/plot.h"
+#include "maps/resistance_map.h"
+
+namespace rectify::app
+{
+  namespace
+  {
+    struct MapThesisOptions
+    {
+      std::string case_path = reference_case_path().string();
+      std::string out_dir;
+      std::size_t n = 25;
+    };
+
+    void map_thesis(const MapThesisOptions &o)
+    {
+      (void)load_case(o.case_path);
+      if (o.n < 2)
+        throw InputError("--n " + std::to_string(o.n) + ": need at least 2 samples");
+      const auto map = maps::thesis_resistance_map(o.n);
+      const std::filesystem::path out(o.out_dir);
+      ensure_directory(out);
+      map.write(out / "resistance-map.csv");
+      // Plot from 1 um up (log axes), without the closed-valve node at x = 0.
+      CsvTable t({"opening_um", "R_Pa_s_per_m3"});
+      for (std::size_t i = 1; i < map.openings().size(); ++i)
+        {
+          const double row[2] = {map.openings()[i] * 1e6, map.resistances()[i]};
+          t.add_row(row);
+        }
+      t.write(out / "resistance-map-plot.csv");
+      const bool plotted = render_plot(
+        out / "resistance-map",
+        {{"Thesis R(x): eq. 3.40 with floor 4.5e8 (closed valve: 1e17 at x = 0)",
+          "tip opening [um]", "R [Pa s/m^3]", true, true,
+          {{out / "resistance-map-plot.csv", "opening_um", "R_Pa_s_per_m3", "map nodes",
+            "linespoints"}}}});
+      write_json(out / "summary.json",
+                 {{"command", "map-thesis"},
+                  {"rectify_version", RECTIFY_VERSION},
+                  {"n_nodes", map.openings().size()},
+                  {"opening_m", map.openings()},
+                  {"R_Pa_s_per_m3", map.resistances()},
+                  {"metadata", map.metadata()},
+                  {"files", {"resistance-map.csv", plotted ? "resistance-map.png" : ""}}});
+      std::printf("wrote %s (%zu nodes)\n", (out / "resistance-map.csv").c_str(),
+                  map.openings().size());
+    }
+  } // namespace
+
+  void register_map_commands(CLI::App &app)
+  {
+    auto  o   = std::make_shared<MapThesisOptions>();
+    auto *cmd = app.add_subcommand(
+      "map-thesis",
+      "Write the thesis's R(x) (eq. 3.40, floor and closed value of sec. 3.2.4) as a map file.");
+    cmd->add_option("--case", o->case_path, "case file (TOML)")->capture_default_str();
+    cmd->add_option("--out", o->out_dir, "output folder")->required();
+    cmd->add_option("--n", o->n, "samples from 2 to 1210 um, log-spaced")->capture_default_str();
+    cmd->callback([o]() { map_thesis(*o); });
+  }
+} // namespace rectify::app

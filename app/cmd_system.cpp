@@ -1,0 +1,414 @@
+// `rectify simulate` and `rectify sweep`: the lumped EHA model (system/).
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "app/commands.h"
+#include "common/io.h"
+#include "common/plot.h"
+#include "system/simulation.h"
+#include "system/sweep.h"
+
+namespace rectify::app
+{
+  CaseFile load_case(const std::filesystem::path &path)
+  {
+    CaseFile file = CaseFile::load(path);
+    (void)system::SystemParameters::from_case(file);
+    file.check_all_keys_known();
+    return file;
+  }
+
+  namespace
+  {
+    constexpr double psi = 6894.757;
+
+    /// Options shared by simulate and sweep.
+    struct CommonOptions
+    {
+      std::string case_path = reference_case_path().string();
+      std::string out_dir;
+      std::string scenario  = "no-flow";
+      bool        ideal_valves = false;
+      double      current_pp_A   = std::nan("");
+      double      current_bias_A = std::nan("");
+      double      rtol           = std::nan("");
+      bool        fd_jacobian    = false;
+
+      void add_to(CLI::App &cmd)
+      {
+        cmd.add_option("--case", case_path, "case file (TOML)")->capture_default_str();
+        cmd.add_option("--out", out_dir, "output folder")->required();
+        cmd.add_option("--scenario", scenario, "no-flow (output mass 1e12 kg) or loaded")
+          ->check(CLI::IsMember({"no-flow", "loaded"}))
+          ->capture_default_str();
+        cmd.add_flag("--ideal-valves", ideal_valves,
+                     "binary valves without dynamics (thesis Figs. 5.3, 5.4)");
+        cmd.add_option("--current-pp", current_pp_A,
+                       "coil current peak-to-peak [A] (default: case [drive])");
+        cmd.add_option("--current-bias", current_bias_A,
+                       "coil current bias [A] (default: case [drive])");
+        cmd.add_option("--rtol", rtol, "CVODE relative tolerance (default: case [solver])");
+        cmd.add_flag("--fd-jacobian", fd_jacobian,
+                     "finite-difference Jacobian instead of the analytic one (cross-check)");
+      }
+
+      /// Parameters with the command-line overrides applied.
+      system::SystemParameters parameters(const CaseFile &file) const
+      {
+        auto p = system::SystemParameters::from_case(file);
+        if (!std::isnan(current_pp_A))
+          p.drive.current_pp_A = current_pp_A;
+        if (!std::isnan(current_bias_A))
+          p.drive.current_bias_A = current_bias_A;
+        if (!std::isnan(rtol))
+          {
+            if (!(rtol >= 1e-12 && rtol <= 1e-2))
+              throw InputError("--rtol " + format_number(rtol) + ": must be in [1e-12, 1e-2]");
+            p.solver.relative_tolerance = rtol;
+          }
+        if (fd_jacobian)
+          p.solver.jacobian = "finite-difference";
+        if (!(p.drive.current_pp_A >= 0) || !std::isfinite(p.drive.current_pp_A))
+          throw InputError("--current-pp " + format_number(p.drive.current_pp_A) +
+                           ": must be >= 0");
+        return p;
+      }
+
+      system::RunOptions run_options(const system::SystemParameters &p) const
+      {
+        system::RunOptions r;
+        r.relative_tolerance         = p.solver.relative_tolerance;
+        r.absolute_tolerance_factor  = p.solver.absolute_tolerance_factor;
+        r.finite_difference_jacobian = p.solver.jacobian == "finite-difference";
+        r.samples_per_cycle          = static_cast<std::size_t>(p.solver.samples_per_cycle);
+        r.max_steps_per_cycle        = static_cast<long>(p.solver.max_steps_per_cycle);
+        return r;
+      }
+    };
+
+    maps::ResistanceMap load_map(const system::SystemParameters &p)
+    {
+      return maps::ResistanceMap::read(p.valves.resistance_map,
+                                       maps::parse_interpolation(p.valves.interpolation));
+    }
+
+    system::Drive make_drive(const system::SystemParameters &p, double frequency)
+    {
+      if (p.drive.waveform == "sine")
+        return system::Drive::sine(frequency, p.drive.current_pp_A, p.drive.current_bias_A);
+      return system::Drive::from_csv(p.drive.waveform, frequency);
+    }
+
+    void echo(const std::string &command, const std::vector<std::pair<std::string, std::string>> &items)
+    {
+      std::fprintf(stderr, "rectify %s\n", command.c_str());
+      for (const auto &[k, v] : items)
+        std::fprintf(stderr, "  %-22s %s\n", k.c_str(), v.c_str());
+    }
+
+    // ---------------------------------------------------------------- simulate
+    struct SimulateOptions : CommonOptions
+    {
+      double      frequency_Hz = 10;
+      std::size_t cycles       = 5;
+      std::string current_csv;
+    };
+
+    void simulate(const SimulateOptions &o)
+    {
+      const CaseFile file = load_case(o.case_path);
+      auto           p    = o.parameters(file);
+      if (!o.current_csv.empty())
+        p.drive.waveform = std::filesystem::absolute(o.current_csv).string();
+      const auto scenario = system::parse_scenario(o.scenario);
+      const auto valves   = o.ideal_valves ? system::ValveModel::ideal : system::ValveModel::dynamic;
+      echo("simulate", {{"case", o.case_path},
+                        {"scenario", o.scenario},
+                        {"valves", system::to_string(valves)},
+                        {"frequency [Hz]", format_number(o.frequency_Hz)},
+                        {"cycles", std::to_string(o.cycles)},
+                        {"current", p.drive.waveform == "sine" ?
+                                      format_number(p.drive.current_pp_A) + " A p-p, " +
+                                        format_number(p.drive.current_bias_A) + " A bias" :
+                                      p.drive.waveform},
+                        {"resistance map", p.valves.resistance_map},
+                        {"rtol", format_number(p.solver.relative_tolerance)},
+                        {"jacobian", p.solver.jacobian},
+                        {"out", o.out_dir}});
+      if (o.cycles == 0)
+        throw InputError("--cycles 0: must be >= 1");
+      system::Model model(p, load_map(p), valves, scenario, make_drive(p, o.frequency_Hz));
+      auto          run = o.run_options(p);
+      run.n_cycles      = o.cycles;
+      run.record        = true;
+      const system::RunResult r = system::run(model, run);
+
+      const std::filesystem::path out(o.out_dir);
+      ensure_directory(out);
+      r.series->write(out / "timeseries.csv");
+      const auto ts = out / "timeseries.csv";
+      const bool plotted = render_plot(
+        out / "timeseries",
+        {{"Pressures (gauge, about the bias)", "time [s]", "pressure [psi]", false, false,
+          {{ts, "time_s", "chamber_pressure_Pa", "chamber p_ch", "lines", 1, 1 / psi},
+           {ts, "time_s", "outlet_pressure_Pa", "outlet p_o", "lines", 1, 1 / psi},
+           {ts, "time_s", "high_pressure_Pa", "high side p_h", "lines", 1, 1 / psi},
+           {ts, "time_s", "low_pressure_Pa", "low side p_l", "lines", 1, 1 / psi}}},
+         {"Reed tip openings", "time [s]", "opening [um]", false, false,
+          {{ts, "time_s", "outlet_reed_m", "outlet reed x_ro", "lines", 1, 1e6},
+           {ts, "time_s", "inlet_reed_m", "inlet reed x_ri", "lines", 1, 1e6}}},
+         {"Piston and actuator", "time [s]", "piston [um], actuator velocity [mm/s]", false, false,
+          {{ts, "time_s", "piston_m", "piston x_p [um]", "lines", 1, 1e6},
+           {ts, "time_s", "actuator_velocity_m_per_s", "actuator velocity [mm/s]", "lines", 1,
+            1e3}}}});
+
+      nlohmann::json summary = {
+        {"command", "simulate"},
+        {"rectify_version", RECTIFY_VERSION},
+        {"case", o.case_path},
+        {"scenario", o.scenario},
+        {"valves", system::to_string(valves)},
+        {"frequency_Hz", o.frequency_Hz},
+        {"cycles", o.cycles},
+        {"stored_pressure_Pa", r.stored_pressure_Pa},
+        {"stored_pressure_psi", r.stored_pressure_Pa / psi},
+        {"mean_velocity_m_per_s", r.mean_velocity_m_per_s},
+        {"wall_time_s", r.wall_time_s},
+        {"definitions",
+         {{"stored_pressure_Pa", "eq. 5.1: mean outlet pressure p_o over the whole run, gauge about the bias pressure"},
+          {"mean_velocity_m_per_s", "eq. 5.2: mean actuator velocity over the whole run"}}},
+        {"run", r.to_json()},
+        {"model_constants", model.constants().to_json()},
+        {"parameters", p.to_json()},
+        {"files", {"timeseries.csv", plotted ? "timeseries.png" : "", plotted ? "timeseries.svg" : ""}}};
+      write_json(out / "summary.json", summary);
+
+      std::printf("stored pressure (eq. 5.1): %.6g Pa (%.4g psi)\n", r.stored_pressure_Pa,
+                  r.stored_pressure_Pa / psi);
+      std::printf("mean actuator velocity (eq. 5.2): %.6g m/s\n", r.mean_velocity_m_per_s);
+      std::printf("piston stroke %.4g um, max outlet reed opening %.4g um, seat impacts %zu\n",
+                  r.piston_stroke_m * 1e6, r.max_outlet_reed_opening_m * 1e6, r.n_seat_impacts);
+      std::printf("volume balance error %.2e (relative), CVODE: %ld steps, %ld events, %.2f s\n",
+                  r.volume_balance_rel_error, r.stats.steps, r.stats.events, r.wall_time_s);
+      for (const auto &w : r.warnings)
+        std::printf("warning: %s\n", w.c_str());
+      if (!plotted)
+        std::printf("notice: gnuplot not available or failed; no plot written\n");
+      std::printf("wrote %s\n", (out / "summary.json").c_str());
+    }
+
+    // ------------------------------------------------------------------- sweep
+    struct SweepCommandOptions : CommonOptions
+    {
+      double                   from_Hz = 10, to_Hz = 3500;
+      std::size_t              n       = 20;
+      std::size_t              cycles  = 50;
+      std::vector<std::string> series;
+      std::string              spacing = "log";
+      unsigned                 jobs    = 0;
+      bool                     quiet   = false;
+      double                   settle_tolerance = 2e-3;
+      std::size_t              max_startup      = 3000;
+    };
+
+    void sweep(const SweepCommandOptions &o)
+    {
+      const CaseFile file     = load_case(o.case_path);
+      const auto     p        = o.parameters(file);
+      const auto     scenario = system::parse_scenario(o.scenario);
+      if (p.drive.waveform != "sine")
+        throw InputError(file.where("drive", "waveform") +
+                         ": a sweep needs the sine drive (a recorded waveform has one frequency)");
+      system::SweepOptions s;
+      s.scenario       = scenario;
+      s.current_pp_A   = p.drive.current_pp_A;
+      s.current_bias_A = p.drive.current_bias_A;
+      s.frequencies_Hz = system::frequency_grid(o.from_Hz, o.to_Hz, o.n, o.spacing == "log");
+      std::vector<std::string> names = o.series;
+      if (o.ideal_valves)
+        names = {"ideal"};
+      if (names.empty())
+        names = scenario == system::Scenario::no_flow ?
+                  std::vector<std::string>{"dynamic", "ideal"} :
+                  std::vector<std::string>{"dynamic", "ideal", "reed-whatif"};
+      for (const auto &n : names)
+        s.series.push_back(system::parse_sweep_series(n));
+      if (o.cycles == 0)
+        throw InputError("--cycles 0: must be >= 1");
+      s.run                    = o.run_options(p);
+      s.run.settle             = true;
+      s.run.n_cycles           = o.cycles;
+      s.run.settle_tolerance   = o.settle_tolerance;
+      s.run.max_startup_cycles = o.max_startup;
+      s.jobs                   = o.jobs;
+      s.quiet                  = o.quiet;
+
+      std::string series_list;
+      for (const auto &n : names)
+        series_list += (series_list.empty() ? "" : ", ") + n;
+      echo("sweep", {{"case", o.case_path},
+                     {"scenario", o.scenario},
+                     {"series", series_list},
+                     {"frequencies [Hz]", format_number(o.from_Hz) + " .. " + format_number(o.to_Hz) +
+                                            ", " + std::to_string(o.n) + " " + o.spacing + "-spaced"},
+                     {"current", format_number(s.current_pp_A) + " A p-p, " +
+                                   format_number(s.current_bias_A) + " A bias"},
+                     {"cycles", "settled start-up (tolerance " + format_number(o.settle_tolerance) +
+                                  ") + " + std::to_string(o.cycles) + " measured"},
+                     {"rtol", format_number(p.solver.relative_tolerance)},
+                     {"jobs", o.jobs ? std::to_string(o.jobs) : "all cores"},
+                     {"out", o.out_dir}});
+
+      const std::filesystem::path out(o.out_dir);
+      ensure_directory(out);
+      const system::SweepResult r = system::run_sweep(p, s, out);
+
+      // Long table: every run with its diagnostics.
+      const bool  pressure = scenario == system::Scenario::no_flow;
+      std::string long_csv =
+        "series,frequency_Hz,stored_pressure_Pa,mean_velocity_m_per_s,settled,startup_cycles,"
+        "measured_cycles,wall_time_s,volume_balance_rel_error,cvode_steps,rhs_evaluations,"
+        "jacobian_evaluations,events\n";
+      for (const auto &pt : r.points)
+        {
+          char buf[400];
+          std::snprintf(buf, sizeof(buf), "%s,%.10g,%.10g,%.10g,%d,%zu,%zu,%.4g,%.3g,%ld,%ld,%ld,%ld\n",
+                        pt.series.c_str(), pt.frequency_Hz, pt.stored_pressure_Pa,
+                        pt.mean_velocity_m_per_s, pt.settled ? 1 : 0, pt.startup_cycles,
+                        pt.measured_cycles, pt.wall_time_s, pt.volume_balance_rel_error, pt.steps,
+                        pt.rhs_evaluations, pt.jacobian_evaluations, pt.events);
+          long_csv += buf;
+        }
+      write_file_atomic(out / "sweep-runs.csv", long_csv);
+
+      // Wide table for plotting: one column per series.
+      const std::string metric = pressure ? "stored_pressure_Pa" : "mean_velocity_m_per_s";
+      std::vector<std::string> columns{"frequency_Hz"};
+      for (const auto &n : names)
+        columns.push_back(n + "_" + metric);
+      CsvTable table(columns);
+      const std::size_t nf = s.frequencies_Hz.size();
+      nlohmann::json    per_series = nlohmann::json::object();
+      long              total_steps = 0;
+      std::size_t       n_unsettled = 0;
+      double            sum_cycles = 0, sum_wall = 0;
+      for (std::size_t si = 0; si < names.size(); ++si)
+        {
+          nlohmann::json values = nlohmann::json::array(), walls = nlohmann::json::array(),
+                         settled = nlohmann::json::array();
+          for (std::size_t i = 0; i < nf; ++i)
+            {
+              const auto &pt = r.points[si * nf + i];
+              values.push_back(pressure ? pt.stored_pressure_Pa : pt.mean_velocity_m_per_s);
+              walls.push_back(pt.wall_time_s);
+              settled.push_back(pt.settled);
+              total_steps += pt.steps;
+              n_unsettled += pt.settled ? 0 : 1;
+              sum_cycles += static_cast<double>(pt.startup_cycles + pt.measured_cycles);
+              sum_wall += pt.wall_time_s;
+            }
+          per_series[names[si]] = {{metric, values}, {"wall_time_s", walls}, {"settled", settled}};
+        }
+      for (std::size_t i = 0; i < nf; ++i)
+        {
+          std::vector<double> row{s.frequencies_Hz[i]};
+          for (std::size_t si = 0; si < names.size(); ++si)
+            {
+              const auto &pt = r.points[si * nf + i];
+              row.push_back(pressure ? pt.stored_pressure_Pa : pt.mean_velocity_m_per_s);
+            }
+          table.add_row(row);
+        }
+      table.write(out / "sweep.csv");
+
+      PlotPanel panel{pressure ? "No-flow stored pressure (eq. 5.1), cf. thesis Fig. 5.3" :
+                                 "Mean actuator velocity (eq. 5.2), cf. thesis Figs. 5.4, 5.6",
+                      "pumping frequency [Hz]",
+                      pressure ? "stored pressure [psi]" : "mean velocity [m/s]",
+                      o.spacing == "log",
+                      false,
+                      {}};
+      for (std::size_t si = 0; si < names.size(); ++si)
+        panel.series.push_back({out / "sweep.csv", "frequency_Hz", columns[si + 1], names[si],
+                                "linespoints", 1.0, pressure ? 1 / psi : 1.0});
+      const bool plotted = render_plot(out / "sweep", {panel});
+
+      nlohmann::json summary = {
+        {"command", "sweep"},
+        {"rectify_version", RECTIFY_VERSION},
+        {"case", o.case_path},
+        {"scenario", o.scenario},
+        {"series", names},
+        {"frequency_Hz", s.frequencies_Hz},
+        {metric, per_series[names[0]][metric]},
+        {"wall_time_s", per_series[names[0]]["wall_time_s"]},
+        {"primary_series", names[0]},
+        {"by_series", per_series},
+        {"sweep_wall_time_s", r.wall_time_s},
+        {"runs_resumed", r.n_resumed},
+        {"runs_not_settled", n_unsettled},
+        {"mean_cycles_per_run", sum_cycles / static_cast<double>(r.points.size())},
+        {"cpu_time_per_cycle_s", sum_wall / sum_cycles},
+        {"cvode_steps_total", total_steps},
+        {"current_pp_A", s.current_pp_A},
+        {"current_bias_A", s.current_bias_A},
+        {"definitions",
+         {{"stored_pressure_Pa", "eq. 5.1 over the measured cycles after a settled start-up; gauge about the bias pressure"},
+          {"mean_velocity_m_per_s", "eq. 5.2 over the measured cycles after a settled start-up"},
+          {"wall_time_s", "per run, on one thread"}}},
+        {"parameters", p.to_json()},
+        {"files", {"sweep.csv", "sweep-runs.csv", plotted ? "sweep.png" : "", plotted ? "sweep.svg" : ""}}};
+      write_json(out / "summary.json", summary);
+      std::printf("%zu runs (%zu resumed) in %.1f s; %zu not settled; %.3g s CPU per cycle\n",
+                  r.points.size(), r.n_resumed, r.wall_time_s, n_unsettled, sum_wall / sum_cycles);
+      std::printf("wrote %s\n", (out / "summary.json").c_str());
+    }
+  } // namespace
+
+  void register_system_commands(CLI::App &app)
+  {
+    auto  sim_options = std::make_shared<SimulateOptions>();
+    auto *sim         = app.add_subcommand(
+      "simulate",
+      "One run of the lumped EHA model (thesis ch. 3): time series CSV, plot, summary.json.\n"
+      "Example: rectify simulate --scenario no-flow --frequency 10 --cycles 5 --out runs/nf10");
+    sim_options->add_to(*sim);
+    sim->add_option("--frequency", sim_options->frequency_Hz, "pumping frequency [Hz]")
+      ->capture_default_str();
+    sim->add_option("--cycles", sim_options->cycles, "pumping cycles to simulate")
+      ->capture_default_str();
+    sim->add_option("--current-csv", sim_options->current_csv,
+                    "drive current waveform: CSV with time_s,current_A");
+    sim->callback([sim_options]() { simulate(*sim_options); });
+
+    auto  sw_options = std::make_shared<SweepCommandOptions>();
+    auto *sw         = app.add_subcommand(
+      "sweep",
+      "Frequency sweep, one settled run per frequency and series, in parallel and resumable.\n"
+      "Stored pressure vs frequency (no-flow, Fig. 5.3) or mean actuator velocity (loaded,\n"
+      "Figs. 5.4, 5.6). Example: rectify sweep --scenario loaded --from 10 --to 3500 --n 100 --out runs/vel");
+    sw_options->add_to(*sw);
+    sw->add_option("--from", sw_options->from_Hz, "first frequency [Hz]")->capture_default_str();
+    sw->add_option("--to", sw_options->to_Hz, "last frequency [Hz]")->capture_default_str();
+    sw->add_option("--n", sw_options->n, "number of frequencies")->capture_default_str();
+    sw->add_option("--cycles", sw_options->cycles, "measured cycles after the settled start-up")
+      ->capture_default_str();
+    sw->add_option("--series", sw_options->series,
+                   "curves: dynamic, ideal, reed-whatif (default: dynamic,ideal[,reed-whatif when loaded])")
+      ->delimiter(',');
+    sw->add_option("--spacing", sw_options->spacing, "log or linear frequency spacing")
+      ->check(CLI::IsMember({"log", "linear"}))
+      ->capture_default_str();
+    sw->add_option("--jobs", sw_options->jobs, "parallel runs (0: all cores)")->capture_default_str();
+    sw->add_option("--settle-tolerance", sw_options->settle_tolerance,
+                   "relative change of the cycle mean that counts as settled")
+      ->check(CLI::Range(1e-6, 0.5))
+      ->capture_default_str();
+    sw->add_option("--max-startup-cycles", sw_options->max_startup,
+                   "give up settling after this many cycles (the run is flagged)")
+      ->capture_default_str();
+    sw->add_flag("--quiet", sw_options->quiet, "no progress lines");
+    sw->callback([sw_options]() { sweep(*sw_options); });
+  }
+} // namespace rectify::app

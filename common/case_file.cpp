@@ -1,0 +1,206 @@
+#include "common/case_file.h"
+
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <toml.hpp>
+
+namespace rectify
+{
+  struct CaseFile::Impl
+  {
+    toml::value root;
+  };
+
+  std::string format_number(double value)
+  {
+    if (std::isnan(value))
+      return "nan";
+    if (std::isinf(value))
+      return value > 0 ? "inf" : "-inf";
+    char buffer[64];
+    auto [end, ec] = std::to_chars(buffer, buffer + sizeof(buffer), value);
+    (void)ec;
+    return std::string(buffer, end);
+  }
+
+  bool Bounds::contains(double value) const
+  {
+    if (!std::isfinite(value))
+      return false;
+    const bool above = min_inclusive ? value >= min : value > min;
+    const bool below = max_inclusive ? value <= max : value < max;
+    return above && below;
+  }
+
+  std::string Bounds::describe() const
+  {
+    const double big = std::numeric_limits<double>::max();
+    std::ostringstream s;
+    if (min > -big && max < big)
+      s << "in " << (min_inclusive ? "[" : "(") << format_number(min) << ", "
+        << format_number(max) << (max_inclusive ? "]" : ")");
+    else if (min > -big)
+      s << (min_inclusive ? ">= " : "> ") << format_number(min);
+    else if (max < big)
+      s << (max_inclusive ? "<= " : "< ") << format_number(max);
+    else
+      s << "finite";
+    return s.str();
+  }
+
+  CaseFile::CaseFile(std::shared_ptr<const Impl> impl)
+    : impl_(std::move(impl))
+  {}
+
+  CaseFile CaseFile::load(const std::filesystem::path &path)
+  {
+    std::ifstream in(path, std::ios::binary);
+    if (!in)
+      throw InputError("cannot open case file '" + path.string() + "'");
+    std::stringstream buffer;
+    buffer << in.rdbuf();
+    return parse(buffer.str(), path.string(), path.parent_path());
+  }
+
+  CaseFile CaseFile::parse(const std::string &text, const std::string &name,
+                           const std::filesystem::path &base_dir)
+  {
+    auto impl = std::make_shared<Impl>();
+    try
+      {
+        std::istringstream in(text);
+        impl->root = toml::parse(in, name);
+      }
+    catch (const toml::syntax_error &e)
+      {
+        throw InputError("case file '" + name + "' is not valid TOML:\n" + e.what());
+      }
+    if (!impl->root.is_table())
+      throw InputError("case file '" + name + "' does not hold a TOML table");
+    CaseFile file(impl);
+    file.name_     = name;
+    file.base_dir_ = base_dir.empty() ? std::filesystem::path(".") : base_dir;
+    return file;
+  }
+
+  std::filesystem::path CaseFile::resolve(const std::string &path_in_file) const
+  {
+    const std::filesystem::path p(path_in_file);
+    return p.is_absolute() ? p : base_dir_ / p;
+  }
+
+  std::string CaseFile::where(const std::string &table, const std::string &key) const
+  {
+    return "case file '" + name_ + "' [" + table + "] " + key;
+  }
+
+  namespace
+  {
+    const toml::value *find(const toml::value &root, const std::string &table,
+                            const std::string &key)
+    {
+      const auto &top = root.as_table();
+      const auto  t   = top.find(table);
+      if (t == top.end() || !t->second.is_table())
+        return nullptr;
+      const auto &inner = t->second.as_table();
+      const auto  k     = inner.find(key);
+      return k == inner.end() ? nullptr : &k->second;
+    }
+
+    std::string line_of(const toml::value &v)
+    {
+      const auto loc = v.location();
+      return loc.line() > 0 ? " (line " + std::to_string(loc.line()) + ")" : "";
+    }
+  } // namespace
+
+  bool CaseFile::has(const std::string &table, const std::string &key) const
+  {
+    return find(impl_->root, table, key) != nullptr;
+  }
+
+  void CaseFile::declare(const std::string &table, const std::string &key) const
+  {
+    known_.insert(table + "." + key);
+  }
+
+  double CaseFile::real(const std::string &table, const std::string &key,
+                        double default_value, const Bounds &bounds) const
+  {
+    declare(table, key);
+    const toml::value *v = find(impl_->root, table, key);
+    double             value = default_value;
+    if (v != nullptr)
+      {
+        if (v->is_floating())
+          value = v->as_floating();
+        else if (v->is_integer())
+          value = static_cast<double>(v->as_integer());
+        else
+          throw InputError(where(table, key) + line_of(*v) +
+                           ": expected a number, got " + toml::format(*v));
+      }
+    if (!bounds.contains(value))
+      throw InputError(where(table, key) + (v ? line_of(*v) : " (default)") + " = " +
+                       format_number(value) + ": must be " + bounds.describe());
+    return value;
+  }
+
+  std::string CaseFile::text(const std::string &table, const std::string &key,
+                             const std::string              &default_value,
+                             const std::vector<std::string> &allowed) const
+  {
+    declare(table, key);
+    const toml::value *v     = find(impl_->root, table, key);
+    std::string        value = default_value;
+    if (v != nullptr)
+      {
+        if (!v->is_string())
+          throw InputError(where(table, key) + line_of(*v) + ": expected a string, got " +
+                           toml::format(*v));
+        value = v->as_string().str;
+      }
+    if (!allowed.empty())
+      {
+        bool ok = false;
+        for (const auto &a : allowed)
+          ok = ok || a == value;
+        if (!ok)
+          {
+            std::string list;
+            for (const auto &a : allowed)
+              list += (list.empty() ? "" : ", ") + ("'" + a + "'");
+            throw InputError(where(table, key) + " = '" + value + "': must be one of " + list);
+          }
+      }
+    return value;
+  }
+
+  void CaseFile::check_all_keys_known() const
+  {
+    for (const auto &[table, value] : impl_->root.as_table())
+      {
+        if (!value.is_table())
+          throw InputError("case file '" + name_ + "': '" + table + "'" + line_of(value) +
+                           " must be a [table]; top-level keys are not used");
+        bool any_known = false;
+        for (const auto &k : known_)
+          any_known = any_known || k.rfind(table + ".", 0) == 0;
+        if (!any_known)
+          throw InputError("case file '" + name_ + "': unknown table [" + table + "]" +
+                           line_of(value));
+        for (const auto &[key, inner] : value.as_table())
+          if (known_.count(table + "." + key) == 0)
+            throw InputError(where(table, key) + line_of(inner) +
+                             ": unknown key (check its spelling and unit suffix)");
+      }
+  }
+
+  std::filesystem::path reference_case_path()
+  {
+    return std::filesystem::path(RECTIFY_SOURCE_DIR) / "cases" / "reference.toml";
+  }
+} // namespace rectify

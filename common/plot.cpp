@@ -1,0 +1,100 @@
+#include "common/plot.h"
+
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+
+#include "common/io.h"
+
+namespace rectify
+{
+  namespace
+  {
+    /// 1-based gnuplot column of `name` in the CSV header of `file`.
+    int column_number(const std::filesystem::path &file, const std::string &name)
+    {
+      std::ifstream in(file);
+      std::string   line;
+      while (std::getline(in, line))
+        if (!line.empty() && line[0] != '#')
+          break;
+      std::istringstream header(line);
+      std::string        cell;
+      for (int c = 1; std::getline(header, cell, ','); ++c)
+        if (cell == name)
+          return c;
+      throw std::logic_error("plot: no column '" + name + "' in " + file.string());
+    }
+
+    std::string quote(const std::string &s)
+    {
+      std::string out = "\"";
+      for (char c : s)
+        out += (c == '"' ? std::string("\\\"") : std::string(1, c));
+      return out + "\"";
+    }
+
+    std::string script_body(const std::vector<PlotPanel> &panels)
+    {
+      std::ostringstream s;
+      s << "set datafile separator ','\nset grid\nset key outside right top\n";
+      if (panels.size() > 1)
+        s << "set multiplot layout " << panels.size() << ",1\n";
+      for (const auto &p : panels)
+        {
+          s << "set title " << quote(p.title) << "\nset xlabel " << quote(p.x_label)
+            << "\nset ylabel " << quote(p.y_label) << "\n"
+            << (p.log_x ? "set logscale x\n" : "unset logscale x\n")
+            << (p.log_y ? "set logscale y\n" : "unset logscale y\n") << "plot ";
+          for (std::size_t i = 0; i < p.series.size(); ++i)
+            {
+              const auto &r  = p.series[i];
+              const int   cx = column_number(r.data_file, r.x_column);
+              const int   cy = column_number(r.data_file, r.y_column);
+              s << (i ? ", \\\n     " : "") << quote(r.data_file.filename().string())
+                << " every ::1 using ($" << cx << "*" << r.x_scale << "):($" << cy << "*"
+                << r.y_scale << ") with " << r.style << " title " << quote(r.title);
+            }
+          s << "\n";
+        }
+      if (panels.size() > 1)
+        s << "unset multiplot\n";
+      return s.str();
+    }
+  } // namespace
+
+  bool render_plot(const std::filesystem::path &base, const std::vector<PlotPanel> &panels)
+  {
+    const std::string body   = script_body(panels);
+    const auto        dir    = base.parent_path().empty() ? std::filesystem::path(".")
+                                                          : base.parent_path();
+    const std::string stem   = base.filename().string();
+    const int         height = 360 * static_cast<int>(panels.size()) + 60;
+    std::ostringstream script;
+    script << "# gnuplot script written by rectify; run from this folder: gnuplot " << stem
+           << ".gp\n"
+           << "set terminal pngcairo size 1000," << height << " noenhanced\n"
+           << "set output '" << stem << ".png.part'\n"
+           << body << "set terminal svg size 1000," << height << " noenhanced\n"
+           << "set output '" << stem << ".svg.part'\n"
+           << body << "set output\n";
+    write_file_atomic(dir / (stem + ".gp"), script.str());
+
+    const std::string command = "cd '" + dir.string() + "' && gnuplot '" + stem +
+                                ".gp' > '" + stem + ".gp.log' 2>&1";
+    if (std::system("command -v gnuplot > /dev/null 2>&1") != 0)
+      return false;
+    const bool ok = std::system(command.c_str()) == 0;
+    for (const char *ext : {".png", ".svg"})
+      {
+        const auto part = dir / (stem + ext + ".part");
+        if (ok && std::filesystem::exists(part))
+          std::filesystem::rename(part, dir / (stem + ext));
+        else
+          std::filesystem::remove(part);
+      }
+    if (ok)
+      std::filesystem::remove(dir / (stem + ".gp.log"));
+    return ok;
+  }
+} // namespace rectify

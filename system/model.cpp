@@ -1,0 +1,351 @@
+#include "system/model.h"
+
+#include <cmath>
+
+#include "common/case_file.h"
+
+namespace rectify::system
+{
+  ValveModel parse_valve_model(const std::string &name)
+  {
+    if (name == "dynamic")
+      return ValveModel::dynamic;
+    if (name == "ideal")
+      return ValveModel::ideal;
+    throw InputError("unknown valve model '" + name + "' (dynamic or ideal)");
+  }
+
+  Scenario parse_scenario(const std::string &name)
+  {
+    if (name == "no-flow")
+      return Scenario::no_flow;
+    if (name == "loaded")
+      return Scenario::loaded;
+    throw InputError("unknown scenario '" + name + "' (no-flow or loaded)");
+  }
+
+  std::string to_string(ValveModel v) { return v == ValveModel::dynamic ? "dynamic" : "ideal"; }
+  std::string to_string(Scenario s) { return s == Scenario::no_flow ? "no-flow" : "loaded"; }
+
+  ModelConstants::ModelConstants(const SystemParameters &p, Scenario scenario)
+  {
+    const auto &td = p.transducer;
+    k_td             = td.rod_stiffness_N_per_m();      // eq. 3.2
+    force_per_ampere = td.force_per_ampere_N_per_A();   // eq. 3.1
+    k_eff            = k_td + td.diaphragm_stiffness_N_per_m; // eq. 3.5
+    m_eff            = td.effective_mass_kg;
+    b_eff            = 2.0 * td.damping_ratio * std::sqrt(k_eff * m_eff);
+
+    beta_eff         = p.fluid.effective_bulk_modulus_Pa(); // eq. 3.26
+    A_pi             = p.chamber.piston_area_m2;
+    const double V_c = A_pi * p.chamber.height_m;
+    m_f              = V_c * p.fluid.density_kg_per_m3;           // eq. 3.3
+    k_f              = beta_eff * A_pi / p.chamber.height_m;      // eq. 3.4
+    b_f              = 2.0 * p.chamber.fluid_damping_ratio * std::sqrt(k_f * m_f);
+    C_ch             = V_c / beta_eff;                            // eq. 3.29
+
+    reed.stiffness   = p.reed.stiffness_N_per_m;
+    reed.mass        = p.reed.effective_mass_kg;
+    reed.damping     = 2.0 * p.reed.damping_ratio * std::sqrt(reed.stiffness * reed.mass);
+    reed.area        = p.reed.pressure_area_m2;
+    reed.restitution = p.reed.restitution;
+
+    A_po = p.cylinder.piston_area_m2;
+    m_l  = scenario == Scenario::no_flow ? p.load.no_flow_mass_kg : p.load.mass_kg;
+    b_l  = p.load.damping_N_s_per_m;
+    k_l  = p.load.stiffness_N_per_m;
+    C_h  = A_po * p.cylinder.high_side_fraction * p.cylinder.wetted_length_m / beta_eff;
+    C_l  = A_po * (1.0 - p.cylinder.high_side_fraction) * p.cylinder.wetted_length_m / beta_eff;
+    // Isothermal gas: V = m R T / p, so C = -dV/dp = m R T / p^2 = V_gas / p_bias (Table 3.6).
+    C_acc = p.accumulator.gas_volume_m3 / p.fluid.bias_pressure_Pa;
+
+    R3 = R4 = R5 = R6 = p.lines.resistance_Pa_s_per_m3(p.fluid.viscosity_Pa_s); // eq. 3.28
+    R_ideal_open = p.valves.ideal_open_resistance_Pa_s_per_m3;
+    p_bias       = p.fluid.bias_pressure_Pa;
+    out_of_range = maps::parse_out_of_range(p.valves.out_of_range);
+  }
+
+  nlohmann::json ModelConstants::to_json() const
+  {
+    return {{"force_per_ampere_N_per_A", force_per_ampere},
+            {"rod_stiffness_N_per_m", k_td},
+            {"transducer_stiffness_N_per_m", k_eff},
+            {"transducer_damping_N_s_per_m", b_eff},
+            {"fluid_stiffness_N_per_m", k_f},
+            {"fluid_mass_kg", m_f},
+            {"fluid_damping_N_s_per_m", b_f},
+            {"effective_bulk_modulus_Pa", beta_eff},
+            {"reed_damping_N_s_per_m", reed.damping},
+            {"reed_natural_frequency_Hz", std::sqrt(reed.stiffness / reed.mass) / (2 * M_PI)},
+            {"load_mass_kg", m_l},
+            {"chamber_capacitance_m3_per_Pa", C_ch},
+            {"accumulator_capacitance_m3_per_Pa", C_acc},
+            {"high_side_capacitance_m3_per_Pa", C_h},
+            {"low_side_capacitance_m3_per_Pa", C_l},
+            {"line_resistance_Pa_s_per_m3", R3},
+            {"bias_pressure_Pa", p_bias}};
+  }
+
+  Model::Model(const SystemParameters &parameters, maps::ResistanceMap map, ValveModel valves,
+               Scenario scenario, Drive drive)
+    : c_(parameters, scenario)
+    , map_(std::move(map))
+    , valves_(valves)
+    , scenario_(scenario)
+    , drive_(std::move(drive))
+  {}
+
+  void Model::reset()
+  {
+    closed_    = {true, true};
+    n_impacts_ = 0;
+  }
+
+  std::vector<double> Model::initial_state() const
+  {
+    return std::vector<double>(state::count, 0.0);
+  }
+
+  std::vector<double> Model::typical_sizes() const
+  {
+    std::vector<double> s(state::count);
+    const double        x = 1e-5, v = 1e-2, p = 1e6;
+    s[state::piston_x] = s[state::fluid_x] = s[state::actuator_x] = x;
+    s[state::outlet_reed_x] = s[state::inlet_reed_x] = x;
+    s[state::piston_v] = s[state::fluid_v] = s[state::actuator_v] = v;
+    s[state::outlet_reed_v] = s[state::inlet_reed_v] = v;
+    s[state::chamber_p] = s[state::accumulator_p] = s[state::high_p] = s[state::low_p] = p;
+    s[state::outlet_volume] = s[state::inlet_volume] = c_.A_pi * x;
+    s[state::outlet_pressure_integral] = p * 1e-3;
+    return s;
+  }
+
+  maps::ResistanceMap::Value Model::valve_resistance(std::size_t v,
+                                                     std::span<const double> y) const
+  {
+    if (valves_ == ValveModel::ideal)
+      return {closed_[v] ? map_.closed_resistance() : c_.R_ideal_open, 0.0, false};
+    if (closed_[v])
+      return {map_.closed_resistance(), 0.0, false};
+    return map_.evaluate(y[v == 0 ? state::outlet_reed_x : state::inlet_reed_x]);
+  }
+
+  Flows Model::flows(std::span<const double> y) const
+  {
+    const double p_ch = y[state::chamber_p], p_acc = y[state::accumulator_p];
+    const double p_h = y[state::high_p], p_l = y[state::low_p];
+    Flows        f;
+    f.R1             = valve_resistance(0, y).resistance;
+    f.R2             = valve_resistance(1, y).resistance;
+    const double g13 = 1.0 / (f.R1 + c_.R3);
+    const double g24 = 1.0 / (f.R2 + c_.R4);
+    const double g5 = 1.0 / c_.R5, g6 = 1.0 / c_.R6;
+    f.p_junction    = (g24 * p_ch + g5 * p_acc + g6 * p_l) / (g24 + g5 + g6);
+    f.q_outlet      = g13 * (p_ch - p_h);
+    f.q_inlet       = g24 * (f.p_junction - p_ch);
+    f.q_accumulator = g5 * (f.p_junction - p_acc);
+    f.q_low         = g6 * (f.p_junction - p_l);
+    f.p_outlet      = p_ch - f.R1 * f.q_outlet; // = (R1 p_h + R3 p_ch)/(R1 + R3)
+    f.p_inlet       = p_ch + f.R2 * f.q_inlet;  // = (R2 p_a + R4 p_ch)/(R2 + R4)
+    f.outlet_force  = c_.reed.area * (p_ch - f.p_outlet);
+    f.inlet_force   = c_.reed.area * (f.p_inlet - p_ch);
+    return f;
+  }
+
+  void Model::rhs(double t, std::span<const double> y, std::span<double> ydot) const
+  {
+    using namespace state;
+    const Flows  f    = flows(y);
+    const double F_td = c_.force_per_ampere * drive_.current_A(t); // eq. 3.1
+
+    ydot[piston_x] = y[piston_v];
+    ydot[piston_v] = (F_td - (c_.b_f + c_.b_eff) * y[piston_v] + c_.b_f * y[fluid_v] -
+                      (c_.k_eff + c_.k_f) * y[piston_x] + c_.k_f * y[fluid_x]) /
+                     c_.m_eff;
+    ydot[fluid_x] = y[fluid_v];
+    ydot[fluid_v] = (c_.b_f * (y[piston_v] - y[fluid_v]) + c_.k_f * (y[piston_x] - y[fluid_x]) -
+                     y[chamber_p] * c_.A_pi) /
+                    c_.m_f;
+    ydot[actuator_x] = y[actuator_v];
+    ydot[actuator_v] = ((y[high_p] - y[low_p]) * c_.A_po - c_.b_l * y[actuator_v] -
+                        c_.k_l * y[actuator_x]) /
+                       c_.m_l;
+
+    const std::array<double, 2> force{f.outlet_force, f.inlet_force};
+    for (std::size_t v = 0; v < 2; ++v)
+      {
+        const std::size_t ix = v == 0 ? outlet_reed_x : inlet_reed_x;
+        if (valves_ == ValveModel::ideal || closed_[v])
+          {
+            ydot[ix] = ydot[ix + 1] = 0.0; // on the seat: held by the seat's reaction
+            continue;
+          }
+        ydot[ix]     = y[ix + 1];
+        ydot[ix + 1] = reed_acceleration(c_.reed, y[ix], y[ix + 1], force[v]);
+      }
+
+    ydot[chamber_p]     = (c_.A_pi * y[piston_v] + f.q_inlet - f.q_outlet) / c_.C_ch;
+    ydot[accumulator_p] = f.q_accumulator / c_.C_acc;
+    ydot[high_p]        = (f.q_outlet - c_.A_po * y[actuator_v]) / c_.C_h;
+    ydot[low_p]         = (f.q_low + c_.A_po * y[actuator_v]) / c_.C_l;
+    ydot[outlet_volume] = f.q_outlet;
+    ydot[inlet_volume]  = f.q_inlet;
+    ydot[outlet_pressure_integral] = f.p_outlet;
+  }
+
+  void Model::jacobian(double, std::span<const double> y, DenseView J) const
+  {
+    using namespace state;
+    const double p_ch = y[chamber_p], p_h = y[high_p];
+    const auto   r1 = valve_resistance(0, y), r2 = valve_resistance(1, y);
+    const double R1 = r1.resistance, R2 = r2.resistance;
+    const double R13 = R1 + c_.R3, R24 = R2 + c_.R4;
+    const double g13 = 1.0 / R13, g24 = 1.0 / R24, g5 = 1.0 / c_.R5, g6 = 1.0 / c_.R6;
+    const double G   = g24 + g5 + g6;
+    const Flows  f   = flows(y);
+    const double p_a = f.p_junction;
+
+    // Mechanics.
+    J(piston_x, piston_v) = 1.0;
+    J(piston_v, piston_x) = -(c_.k_eff + c_.k_f) / c_.m_eff;
+    J(piston_v, piston_v) = -(c_.b_f + c_.b_eff) / c_.m_eff;
+    J(piston_v, fluid_x)  = c_.k_f / c_.m_eff;
+    J(piston_v, fluid_v)  = c_.b_f / c_.m_eff;
+    J(fluid_x, fluid_v)   = 1.0;
+    J(fluid_v, piston_x)  = c_.k_f / c_.m_f;
+    J(fluid_v, piston_v)  = c_.b_f / c_.m_f;
+    J(fluid_v, fluid_x)   = -c_.k_f / c_.m_f;
+    J(fluid_v, fluid_v)   = -c_.b_f / c_.m_f;
+    J(fluid_v, chamber_p) = -c_.A_pi / c_.m_f;
+    J(actuator_x, actuator_v) = 1.0;
+    J(actuator_v, actuator_x) = -c_.k_l / c_.m_l;
+    J(actuator_v, actuator_v) = -c_.b_l / c_.m_l;
+    J(actuator_v, high_p)     = c_.A_po / c_.m_l;
+    J(actuator_v, low_p)      = -c_.A_po / c_.m_l;
+
+    // Flow gradients. Columns: the four pressures and the two reed openings.
+    // dp_a/dp_ch = g24/G etc.; g13, g24 depend on the reed openings through R1, R2.
+    const double a_ch = g24 / G, a_acc = g5 / G, a_l = g6 / G;
+    const double dg13_dxo = -r1.slope * g13 * g13;
+    const double dg24_dxi = -r2.slope * g24 * g24;
+    const double dpa_dg24 = (p_ch - p_a) / G;
+
+    struct Gradient
+    {
+      double ch = 0, acc = 0, h = 0, l = 0, xo = 0, xi = 0;
+    };
+    Gradient q_out{g13, 0.0, -g13, 0.0, dg13_dxo * (p_ch - p_h), 0.0};
+    Gradient q_in{g24 * (a_ch - 1.0), g24 * a_acc, 0.0, g24 * a_l, 0.0,
+                  dg24_dxi * (p_a - p_ch) * (1.0 - g24 / G)};
+    Gradient q_acc{g5 * a_ch, g5 * (a_acc - 1.0), 0.0, g5 * a_l, 0.0, g5 * dpa_dg24 * dg24_dxi};
+    Gradient q_low{g6 * a_ch, g6 * a_acc, 0.0, g6 * (a_l - 1.0), 0.0, g6 * dpa_dg24 * dg24_dxi};
+
+    const auto put = [&](std::size_t row, const Gradient &g, double scale) {
+      J(row, chamber_p) += scale * g.ch;
+      J(row, accumulator_p) += scale * g.acc;
+      J(row, high_p) += scale * g.h;
+      J(row, low_p) += scale * g.l;
+      J(row, outlet_reed_x) += scale * g.xo;
+      J(row, inlet_reed_x) += scale * g.xi;
+    };
+
+    // Reeds: F_o = A_r R1 q_out, F_i = A_r R2 q_in.
+    if (valves_ == ValveModel::dynamic)
+      {
+        if (!closed_[0])
+          {
+            J(outlet_reed_x, outlet_reed_v) = 1.0;
+            J(outlet_reed_v, outlet_reed_x) = -c_.reed.stiffness / c_.reed.mass;
+            J(outlet_reed_v, outlet_reed_v) = -c_.reed.damping / c_.reed.mass;
+            Gradient F{c_.reed.area * R1 * g13, 0.0, -c_.reed.area * R1 * g13, 0.0,
+                       c_.reed.area * (p_ch - p_h) * r1.slope * c_.R3 * g13 * g13, 0.0};
+            put(outlet_reed_v, F, 1.0 / c_.reed.mass);
+          }
+        if (!closed_[1])
+          {
+            J(inlet_reed_x, inlet_reed_v) = 1.0;
+            J(inlet_reed_v, inlet_reed_x) = -c_.reed.stiffness / c_.reed.mass;
+            J(inlet_reed_v, inlet_reed_v) = -c_.reed.damping / c_.reed.mass;
+            Gradient F{c_.reed.area * R2 * q_in.ch, c_.reed.area * R2 * q_in.acc, 0.0,
+                       c_.reed.area * R2 * q_in.l, 0.0,
+                       c_.reed.area * (r2.slope * f.q_inlet + R2 * q_in.xi)};
+            put(inlet_reed_v, F, 1.0 / c_.reed.mass);
+          }
+      }
+
+    // Pressures and integrals.
+    J(chamber_p, piston_v) = c_.A_pi / c_.C_ch;
+    put(chamber_p, q_in, 1.0 / c_.C_ch);
+    put(chamber_p, q_out, -1.0 / c_.C_ch);
+    put(accumulator_p, q_acc, 1.0 / c_.C_acc);
+    put(high_p, q_out, 1.0 / c_.C_h);
+    J(high_p, actuator_v) = -c_.A_po / c_.C_h;
+    put(low_p, q_low, 1.0 / c_.C_l);
+    J(low_p, actuator_v) = c_.A_po / c_.C_l;
+    put(outlet_volume, q_out, 1.0);
+    put(inlet_volume, q_in, 1.0);
+    // p_o = p_ch - R1 q_out
+    Gradient p_o{1.0 - R1 * g13, 0.0, R1 * g13, 0.0,
+                 -(r1.slope * f.q_outlet + R1 * q_out.xo), 0.0};
+    put(outlet_pressure_integral, p_o, 1.0);
+  }
+
+  double Model::driving_pressure(std::size_t v, std::span<const double> y) const
+  {
+    const Flows f = flows(y);
+    return v == 0 ? y[state::chamber_p] - y[state::high_p]
+                  : f.p_junction - y[state::chamber_p];
+  }
+
+  namespace
+  {
+    /// An ideal valve switches when its pressure difference passes
+    /// +-switch_pressure (not 0: see reed_lift_force).
+    constexpr double switch_pressure = 1e-6; // [Pa]
+  } // namespace
+
+  void Model::roots(double, std::span<const double> y, std::span<double> g) const
+  {
+    const Flows f = flows(y);
+    for (std::size_t v = 0; v < 2; ++v)
+      {
+        const std::size_t ix = v == 0 ? state::outlet_reed_x : state::inlet_reed_x;
+        if (valves_ == ValveModel::ideal)
+          {
+            const double dp = driving_pressure(v, y);
+            // opens when dp rises past +switch_pressure, shuts when it falls past -switch_pressure
+            g[v] = closed_[v] ? switch_pressure - dp : dp + switch_pressure;
+          }
+        else
+          {
+            g[v] = reed_root(closed_[v], y[ix], v == 0 ? f.outlet_force : f.inlet_force);
+          }
+      }
+  }
+
+  bool Model::handle_events(double, std::span<double> y, std::span<const int> found)
+  {
+    bool changed = false;
+    for (std::size_t v = 0; v < 2; ++v)
+      {
+        if (found[v] == 0)
+          continue;
+        const std::size_t ix = v == 0 ? state::outlet_reed_x : state::inlet_reed_x;
+        changed              = true;
+        if (valves_ == ValveModel::ideal)
+          {
+            closed_[v] = !closed_[v];
+            continue;
+          }
+        if (!closed_[v])
+          {
+            ++n_impacts_;
+            y[ix] = 0.0; // the force at impact is the force with the reed at x = 0
+          }
+        const Flows f = flows(y);
+        closed_[v]    = reed_on_root(c_.reed, closed_[v], v == 0 ? f.outlet_force : f.inlet_force,
+                                     y[ix], y[ix + 1]);
+      }
+    return changed;
+  }
+} // namespace rectify::system

@@ -1,0 +1,159 @@
+// The lumped model of the Terfenol-D pump, reed valves, hydraulic circuit and
+// output cylinder: thesis eqs. 3.1-3.36, with the corrections listed in
+// docs/system-model.md (each marked "correction" below).
+//
+// States (see `namespace state`):
+//   mechanics  x_p, v_p (piston + rod), x_f, v_f (chamber fluid mass),
+//              x_act, v_act (output piston and load),
+//              x_ro, v_ro, x_ri, v_ri (outlet and inlet reed tips, >= 0)
+//   pressures  p_ch, p_acc, p_h, p_l, gauge about the bias pressure
+//   integrals  V_out, V_in (volume through each valve), int p_o dt
+//
+//   m_eff x_p'' = N q k_td I - (b_f + b_eff) x_p' + b_f x_f' - (k_eff + k_f) x_p + k_f x_f   (3.6)
+//   m_f   x_f'' = b_f x_p' - b_f x_f' + k_f x_p - k_f x_f - p_ch A_pi      (3.7, sign corrected)
+//   m_l x_act'' = (p_h - p_l) A_po - b_l x_act' - k_l x_act                (3.8)
+//   m_r x_ro''  = (p_ch - p_o) A_r - b_r x_ro' - k_r x_ro,  x_ro >= 0     (3.9)
+//   m_r x_ri''  = (p_i - p_ch) A_r - b_r x_ri' - k_r x_ri,  x_ri >= 0     (3.10)
+//   C_ch p_ch'  = A_pi x_p' + q_in - q_out                                 (3.31)
+//   C_acc p_acc' = q_acc,  C_h p_h' = q_out - A_po x_act',  C_l p_l' = q_low + A_po x_act'
+//
+// with the circuit of Fig. 3.5: chamber -R1(x_ro)- p_o -R3- high side;
+// junction p_a -R4- p_i -R2(x_ri)- chamber; junction -R5- accumulator;
+// junction -R6- low side. The junction has no capacitance: p_a follows from
+// Kirchhoff's current law. Flows are computed as such (node form), which is
+// algebraically the same as eqs. 3.32-3.36 once their typos are corrected.
+#pragma once
+
+#include <array>
+#include <nlohmann/json.hpp>
+#include <span>
+#include <vector>
+
+#include "maps/resistance_map.h"
+#include "system/drive.h"
+#include "system/integrator.h"
+#include "system/parameters.h"
+#include "system/reed.h"
+
+namespace rectify::system
+{
+  enum class ValveModel
+  {
+    dynamic, ///< 1-DOF reeds with seat contact and R(x) from the map
+    ideal    ///< binary valves: open (fixed low R) while the pressure drives flow forward
+  };
+
+  enum class Scenario
+  {
+    no_flow, ///< output mass 1e12 kg (thesis sec. 5.1)
+    loaded   ///< inertial load (thesis sec. 5.2)
+  };
+
+  ValveModel parse_valve_model(const std::string &name);
+  Scenario   parse_scenario(const std::string &name);
+  std::string to_string(ValveModel v);
+  std::string to_string(Scenario s);
+
+  namespace state
+  {
+    enum : std::size_t
+    {
+      piston_x,
+      piston_v,
+      fluid_x,
+      fluid_v,
+      actuator_x,
+      actuator_v,
+      outlet_reed_x,
+      outlet_reed_v,
+      inlet_reed_x,
+      inlet_reed_v,
+      chamber_p,
+      accumulator_p,
+      high_p,
+      low_p,
+      outlet_volume,
+      inlet_volume,
+      outlet_pressure_integral,
+      count
+    };
+  } // namespace state
+
+  /// Model constants derived from the parameters (eqs. 3.2-3.5, 3.28, 3.29,
+  /// Tables 3.5-3.6). Damping coefficients from damping ratios: b = 2 zeta sqrt(k m)
+  /// with (k_eff, m_eff) for the transducer, (k_f, m_f) for the chamber fluid,
+  /// (k_r, m_r) for a reed.
+  struct ModelConstants
+  {
+    double force_per_ampere; ///< N q k_td [N/A]
+    double k_td, k_eff, k_f, m_eff, m_f, b_eff, b_f, A_pi;
+    ReedConstants reed; ///< k_r, m_r, b_r, A_r, restitution
+    double k_l, m_l, b_l, A_po;
+    double beta_eff, C_ch, C_acc, C_h, C_l;
+    double R3, R4, R5, R6;
+    double R_ideal_open;
+    double p_bias; ///< absolute pressure the gauge states are measured from
+    maps::OutOfRange out_of_range;
+
+    ModelConstants(const SystemParameters &p, Scenario scenario);
+    nlohmann::json to_json() const;
+  };
+
+  /// Algebraic quantities at one state.
+  struct Flows
+  {
+    double R1, R2;                 ///< valve resistances [Pa s/m^3]
+    double p_junction;             ///< p_a
+    double p_outlet, p_inlet;      ///< p_o, p_i
+    double q_outlet;               ///< chamber -> high side, through the outlet valve
+    double q_inlet;                ///< junction -> chamber, through the inlet valve
+    double q_accumulator;          ///< junction -> accumulator
+    double q_low;                  ///< junction -> low side
+    double outlet_force, inlet_force; ///< opening pressure force on each reed [N]
+  };
+
+  class Model : public OdeSystem
+  {
+  public:
+    Model(const SystemParameters &parameters, maps::ResistanceMap map, ValveModel valves,
+          Scenario scenario, Drive drive);
+
+    std::size_t n_states() const override { return state::count; }
+    void        rhs(double t, std::span<const double> y, std::span<double> ydot) const override;
+    void        jacobian(double t, std::span<const double> y, DenseView J) const override;
+    std::size_t n_roots() const override { return 2; }
+    void        roots(double t, std::span<const double> y, std::span<double> g) const override;
+    bool handle_events(double t, std::span<double> y, std::span<const int> found) override;
+
+    Flows               flows(std::span<const double> y) const;
+    std::vector<double> initial_state() const;
+    /// Typical magnitude of each state, for absolute tolerances.
+    std::vector<double> typical_sizes() const;
+
+    /// Valve `v` (0 outlet, 1 inlet) is closed: reed on its seat (dynamic) or
+    /// valve shut (ideal).
+    bool closed(std::size_t v) const { return closed_[v]; }
+    /// Sets the discrete state: both valves closed, reeds on their seats.
+    void reset();
+    std::size_t n_seat_impacts() const { return n_impacts_; }
+
+    const ModelConstants       &constants() const { return c_; }
+    const Drive                &drive() const { return drive_; }
+    const maps::ResistanceMap  &resistance_map() const { return map_; }
+    ValveModel                  valve_model() const { return valves_; }
+    Scenario                    scenario() const { return scenario_; }
+
+  private:
+    /// R and dR/dx of valve v at state y.
+    maps::ResistanceMap::Value valve_resistance(std::size_t v, std::span<const double> y) const;
+    double                     driving_pressure(std::size_t v, std::span<const double> y) const;
+
+    ModelConstants        c_;
+    maps::ResistanceMap   map_;
+    ValveModel            valves_;
+    Scenario              scenario_;
+    Drive                 drive_;
+    std::array<bool, 2>   closed_{true, true};
+    std::size_t           n_impacts_ = 0;
+  };
+} // namespace rectify::system

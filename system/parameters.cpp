@@ -1,0 +1,251 @@
+#include "system/parameters.h"
+
+#include <cmath>
+#include <numbers>
+
+namespace rectify::system
+{
+  namespace
+  {
+    const Bounds positive     = Bounds::positive();
+    const Bounds non_negative = Bounds::non_negative();
+  } // namespace
+
+  double FluidParameters::effective_bulk_modulus_Pa() const
+  {
+    const double gas_bulk_modulus = gas_heat_capacity_ratio * bias_pressure_Pa; // eq. 3.25
+    return 1.0 / ((1.0 - entrained_air_fraction) / bulk_modulus_Pa +
+                  entrained_air_fraction / gas_bulk_modulus); // eq. 3.26
+  }
+
+  FluidParameters FluidParameters::from_case(const CaseFile &f)
+  {
+    FluidParameters p;
+    const std::string t = "fluid";
+    p.density_kg_per_m3 = f.real(t, "density_kg_per_m3", p.density_kg_per_m3, positive);
+    p.viscosity_Pa_s    = f.real(t, "viscosity_Pa_s", p.viscosity_Pa_s, positive);
+    p.bulk_modulus_Pa   = f.real(t, "bulk_modulus_Pa", p.bulk_modulus_Pa, positive);
+    p.entrained_air_fraction =
+      f.real(t, "entrained_air_fraction", p.entrained_air_fraction, Bounds{0.0, 1.0, true, false});
+    p.gas_heat_capacity_ratio =
+      f.real(t, "gas_heat_capacity_ratio", p.gas_heat_capacity_ratio, Bounds::closed(1.0, 5.0 / 3.0));
+    p.bias_pressure_Pa = f.real(t, "bias_pressure_Pa", p.bias_pressure_Pa, positive);
+    return p;
+  }
+
+  double TransducerParameters::rod_stiffness_N_per_m() const
+  {
+    return rod_youngs_modulus_Pa * rod_area_m2 / rod_length_m;
+  }
+
+  double TransducerParameters::force_per_ampere_N_per_A() const
+  {
+    return coil_turns * piezomagnetic_coefficient_m_per_A * rod_stiffness_N_per_m();
+  }
+
+  TransducerParameters TransducerParameters::from_case(const CaseFile &f)
+  {
+    TransducerParameters p;
+    const std::string    t = "transducer";
+    p.rod_youngs_modulus_Pa = f.real(t, "rod_youngs_modulus_Pa", p.rod_youngs_modulus_Pa, positive);
+    p.rod_area_m2           = f.real(t, "rod_area_m2", p.rod_area_m2, positive);
+    p.rod_length_m          = f.real(t, "rod_length_m", p.rod_length_m, positive);
+    p.diaphragm_stiffness_N_per_m =
+      f.real(t, "diaphragm_stiffness_N_per_m", p.diaphragm_stiffness_N_per_m, non_negative);
+    p.effective_mass_kg = f.real(t, "effective_mass_kg", p.effective_mass_kg, positive);
+    p.damping_ratio     = f.real(t, "damping_ratio", p.damping_ratio, non_negative);
+    p.coil_turns        = f.real(t, "coil_turns", p.coil_turns, positive);
+    p.piezomagnetic_coefficient_m_per_A =
+      f.real(t, "piezomagnetic_coefficient_m_per_A", p.piezomagnetic_coefficient_m_per_A, positive);
+    p.coil_resistance_ohm = f.real(t, "coil_resistance_ohm", p.coil_resistance_ohm, positive);
+    p.coil_inductance_H   = f.real(t, "coil_inductance_H", p.coil_inductance_H, positive);
+    return p;
+  }
+
+  ChamberParameters ChamberParameters::from_case(const CaseFile &f)
+  {
+    ChamberParameters p;
+    const std::string t = "chamber";
+    p.height_m       = f.real(t, "height_m", p.height_m, positive);
+    p.piston_area_m2 = f.real(t, "piston_area_m2", p.piston_area_m2, positive);
+    p.fluid_damping_ratio =
+      f.real(t, "fluid_damping_ratio", p.fluid_damping_ratio, non_negative);
+    return p;
+  }
+
+  ReedParameters ReedParameters::from_case(const CaseFile &f)
+  {
+    ReedParameters    p;
+    const std::string t = "reed";
+    p.stiffness_N_per_m = f.real(t, "stiffness_N_per_m", p.stiffness_N_per_m, positive);
+    p.effective_mass_kg = f.real(t, "effective_mass_kg", p.effective_mass_kg, positive);
+    p.damping_ratio     = f.real(t, "damping_ratio", p.damping_ratio, non_negative);
+    p.pressure_area_m2  = f.real(t, "pressure_area_m2", p.pressure_area_m2, positive);
+    p.restitution       = f.real(t, "restitution", p.restitution, Bounds{0.0, 1.0, true, false});
+    return p;
+  }
+
+  ValveParameters ValveParameters::from_case(const CaseFile &f)
+  {
+    ValveParameters   p;
+    const std::string t = "valves";
+    p.resistance_map =
+      f.resolve(f.text(t, "resistance_map", "thesis-resistance.csv")).string();
+    p.interpolation = f.text(t, "interpolation", p.interpolation, {"monotone-cubic", "log-linear", "linear"});
+    p.out_of_range  = f.text(t, "out_of_range", p.out_of_range, {"hold", "error"});
+    p.ideal_open_resistance_Pa_s_per_m3 = f.real(t, "ideal_open_resistance_Pa_s_per_m3",
+                                                 p.ideal_open_resistance_Pa_s_per_m3, positive);
+    return p;
+  }
+
+  double LineParameters::resistance_Pa_s_per_m3(double viscosity_Pa_s) const
+  {
+    return 128.0 * viscosity_Pa_s * length_m / (std::numbers::pi * std::pow(diameter_m, 4));
+  }
+
+  LineParameters LineParameters::from_case(const CaseFile &f)
+  {
+    LineParameters    p;
+    const std::string t = "lines";
+    p.diameter_m = f.real(t, "diameter_m", p.diameter_m, positive);
+    p.length_m   = f.real(t, "length_m", p.length_m, positive);
+    return p;
+  }
+
+  CylinderParameters CylinderParameters::from_case(const CaseFile &f)
+  {
+    CylinderParameters p;
+    const std::string  t = "cylinder";
+    p.piston_area_m2  = f.real(t, "piston_area_m2", p.piston_area_m2, positive);
+    p.wetted_length_m = f.real(t, "wetted_length_m", p.wetted_length_m, positive);
+    p.high_side_fraction =
+      f.real(t, "high_side_fraction", p.high_side_fraction, Bounds::open(0.0, 1.0));
+    return p;
+  }
+
+  AccumulatorParameters AccumulatorParameters::from_case(const CaseFile &f)
+  {
+    AccumulatorParameters p;
+    p.gas_volume_m3 = f.real("accumulator", "gas_volume_m3", p.gas_volume_m3, positive);
+    return p;
+  }
+
+  LoadParameters LoadParameters::from_case(const CaseFile &f)
+  {
+    LoadParameters    p;
+    const std::string t = "load";
+    p.mass_kg           = f.real(t, "mass_kg", p.mass_kg, positive);
+    p.damping_N_s_per_m = f.real(t, "damping_N_s_per_m", p.damping_N_s_per_m, non_negative);
+    p.stiffness_N_per_m = f.real(t, "stiffness_N_per_m", p.stiffness_N_per_m, non_negative);
+    p.no_flow_mass_kg   = f.real(t, "no_flow_mass_kg", p.no_flow_mass_kg, positive);
+    return p;
+  }
+
+  DriveParameters DriveParameters::from_case(const CaseFile &f)
+  {
+    DriveParameters   p;
+    const std::string t = "drive";
+    p.current_pp_A   = f.real(t, "current_pp_A", p.current_pp_A, non_negative);
+    p.current_bias_A = f.real(t, "current_bias_A", p.current_bias_A, Bounds{});
+    p.waveform       = f.text(t, "waveform", p.waveform);
+    if (p.waveform != "sine")
+      p.waveform = f.resolve(p.waveform).string();
+    return p;
+  }
+
+  SolverParameters SolverParameters::from_case(const CaseFile &f)
+  {
+    SolverParameters  p;
+    const std::string t = "solver";
+    p.relative_tolerance =
+      f.real(t, "relative_tolerance", p.relative_tolerance, Bounds::closed(1e-12, 1e-2));
+    p.absolute_tolerance_factor = f.real(t, "absolute_tolerance_factor",
+                                         p.absolute_tolerance_factor, Bounds::closed(1e-6, 1e6));
+    p.jacobian = f.text(t, "jacobian", p.jacobian, {"analytic", "finite-difference"});
+    p.samples_per_cycle =
+      std::round(f.real(t, "samples_per_cycle", p.samples_per_cycle, Bounds::closed(4, 1e5)));
+    p.max_steps_per_cycle =
+      f.real(t, "max_steps_per_cycle", p.max_steps_per_cycle, Bounds::closed(100, 1e9));
+    return p;
+  }
+
+  SystemParameters SystemParameters::from_case(const CaseFile &f)
+  {
+    SystemParameters p;
+    p.fluid       = FluidParameters::from_case(f);
+    p.transducer  = TransducerParameters::from_case(f);
+    p.chamber     = ChamberParameters::from_case(f);
+    p.reed        = ReedParameters::from_case(f);
+    p.valves      = ValveParameters::from_case(f);
+    p.lines       = LineParameters::from_case(f);
+    p.cylinder    = CylinderParameters::from_case(f);
+    p.accumulator = AccumulatorParameters::from_case(f);
+    p.load        = LoadParameters::from_case(f);
+    p.drive       = DriveParameters::from_case(f);
+    p.solver      = SolverParameters::from_case(f);
+    return p;
+  }
+} // namespace rectify::system
+
+namespace rectify::system
+{
+  nlohmann::json SystemParameters::to_json() const
+  {
+    using nlohmann::json;
+    return json{
+      {"fluid",
+       {{"density_kg_per_m3", fluid.density_kg_per_m3},
+        {"viscosity_Pa_s", fluid.viscosity_Pa_s},
+        {"bulk_modulus_Pa", fluid.bulk_modulus_Pa},
+        {"entrained_air_fraction", fluid.entrained_air_fraction},
+        {"gas_heat_capacity_ratio", fluid.gas_heat_capacity_ratio},
+        {"bias_pressure_Pa", fluid.bias_pressure_Pa}}},
+      {"transducer",
+       {{"rod_youngs_modulus_Pa", transducer.rod_youngs_modulus_Pa},
+        {"rod_area_m2", transducer.rod_area_m2},
+        {"rod_length_m", transducer.rod_length_m},
+        {"diaphragm_stiffness_N_per_m", transducer.diaphragm_stiffness_N_per_m},
+        {"effective_mass_kg", transducer.effective_mass_kg},
+        {"damping_ratio", transducer.damping_ratio},
+        {"coil_turns", transducer.coil_turns},
+        {"piezomagnetic_coefficient_m_per_A", transducer.piezomagnetic_coefficient_m_per_A},
+        {"coil_resistance_ohm", transducer.coil_resistance_ohm},
+        {"coil_inductance_H", transducer.coil_inductance_H}}},
+      {"chamber",
+       {{"height_m", chamber.height_m},
+        {"piston_area_m2", chamber.piston_area_m2},
+        {"fluid_damping_ratio", chamber.fluid_damping_ratio}}},
+      {"reed",
+       {{"stiffness_N_per_m", reed.stiffness_N_per_m},
+        {"effective_mass_kg", reed.effective_mass_kg},
+        {"damping_ratio", reed.damping_ratio},
+        {"pressure_area_m2", reed.pressure_area_m2},
+        {"restitution", reed.restitution}}},
+      {"valves",
+       {{"resistance_map", valves.resistance_map},
+        {"interpolation", valves.interpolation},
+        {"out_of_range", valves.out_of_range},
+        {"ideal_open_resistance_Pa_s_per_m3", valves.ideal_open_resistance_Pa_s_per_m3}}},
+      {"lines", {{"diameter_m", lines.diameter_m}, {"length_m", lines.length_m}}},
+      {"cylinder",
+       {{"piston_area_m2", cylinder.piston_area_m2},
+        {"wetted_length_m", cylinder.wetted_length_m},
+        {"high_side_fraction", cylinder.high_side_fraction}}},
+      {"accumulator", {{"gas_volume_m3", accumulator.gas_volume_m3}}},
+      {"load",
+       {{"mass_kg", load.mass_kg},
+        {"damping_N_s_per_m", load.damping_N_s_per_m},
+        {"stiffness_N_per_m", load.stiffness_N_per_m},
+        {"no_flow_mass_kg", load.no_flow_mass_kg}}},
+      {"drive",
+       {{"current_pp_A", drive.current_pp_A},
+        {"current_bias_A", drive.current_bias_A},
+        {"waveform", drive.waveform}}},
+      {"solver",
+       {{"relative_tolerance", solver.relative_tolerance},
+        {"absolute_tolerance_factor", solver.absolute_tolerance_factor},
+        {"jacobian", solver.jacobian},
+        {"samples_per_cycle", solver.samples_per_cycle},
+        {"max_steps_per_cycle", solver.max_steps_per_cycle}}}};
+  }
+} // namespace rectify::system

@@ -1,0 +1,142 @@
+// Parameters of the lumped EHA model (thesis ch. 3, Table A.1), one struct per
+// concern, each read and range-checked in one place (`from_case`). SI units;
+// the unit is in every key. Defaults are the thesis's values, or, where it
+// gives none, the choices documented in cases/reference.toml and
+// docs/system-model.md.
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "common/case_file.h"
+
+namespace rectify::system
+{
+  struct FluidParameters
+  {
+    double density_kg_per_m3       = 873.0;
+    double viscosity_Pa_s          = 0.0386;
+    double bulk_modulus_Pa         = 85.0 * 6.894757e6; ///< Table A.1 beta_eff, 85 ksi
+    double entrained_air_fraction  = 0.0;               ///< alpha in eq. 3.26
+    double gas_heat_capacity_ratio = 1.4;               ///< gamma in eq. 3.25
+    double bias_pressure_Pa        = 2.582e6;           ///< see reference.toml
+
+    /// eq. 3.26 with beta_gas = gamma p_bias (eq. 3.25).
+    double effective_bulk_modulus_Pa() const;
+    static FluidParameters from_case(const CaseFile &file);
+  };
+
+  struct TransducerParameters
+  {
+    double rod_youngs_modulus_Pa             = 35e9;
+    double rod_area_m2                       = 0.196 * 0.0254 * 0.0254;
+    double rod_length_m                      = 4.5 * 0.0254;
+    double diaphragm_stiffness_N_per_m       = 2.15e6;
+    double effective_mass_kg                 = 0.124;
+    double damping_ratio                     = 0.09;
+    double coil_turns                        = 860;
+    double piezomagnetic_coefficient_m_per_A = 6.85e-9;
+    double coil_resistance_ohm               = 1.9;
+    double coil_inductance_H                 = 1.30e-3;
+
+    double rod_stiffness_N_per_m() const; ///< eq. 3.2
+    double force_per_ampere_N_per_A() const; ///< eq. 3.1: N q k_td
+    static TransducerParameters from_case(const CaseFile &file);
+  };
+
+  struct ChamberParameters
+  {
+    double height_m            = 0.05 * 0.0254;
+    double piston_area_m2      = 0.785 * 0.0254 * 0.0254;
+    double fluid_damping_ratio = 0.55;
+    static ChamberParameters from_case(const CaseFile &file);
+  };
+
+  struct ReedParameters
+  {
+    double stiffness_N_per_m = 6650.0;
+    double effective_mass_kg = 0.3643e-3;
+    double damping_ratio     = 0.1285;
+    double pressure_area_m2  = 0.0123 * 0.0254 * 0.0254;
+    double restitution       = 0.0; ///< seat impact: rebound speed / impact speed
+    static ReedParameters from_case(const CaseFile &file);
+  };
+
+  struct ValveParameters
+  {
+    std::string resistance_map;     ///< resolved path of the R(x) map file
+    std::string interpolation = "monotone-cubic";
+    std::string out_of_range  = "hold";
+    double      ideal_open_resistance_Pa_s_per_m3 = 4.5e8;
+    static ValveParameters from_case(const CaseFile &file);
+  };
+
+  struct LineParameters
+  {
+    double diameter_m = 0.18 * 0.0254;
+    double length_m   = 12 * 0.0254;
+    /// eq. 3.28: 128 mu L / (pi d^4)
+    double resistance_Pa_s_per_m3(double viscosity_Pa_s) const;
+    static LineParameters from_case(const CaseFile &file);
+  };
+
+  struct CylinderParameters
+  {
+    double piston_area_m2     = 0.2 * 0.0254 * 0.0254;
+    double wetted_length_m    = 1.0 * 0.0254;
+    double high_side_fraction = 0.5;
+    static CylinderParameters from_case(const CaseFile &file);
+  };
+
+  struct AccumulatorParameters
+  {
+    double gas_volume_m3 = 1.0 * 0.0254 * 0.0254 * 0.0254;
+    static AccumulatorParameters from_case(const CaseFile &file);
+  };
+
+  struct LoadParameters
+  {
+    double mass_kg             = 50 * 0.45359237;
+    double damping_N_s_per_m   = 0.0;
+    double stiffness_N_per_m   = 0.0;
+    double no_flow_mass_kg     = 1e12;
+    static LoadParameters from_case(const CaseFile &file);
+  };
+
+  struct DriveParameters
+  {
+    double      current_pp_A   = 20.0;
+    double      current_bias_A = 10.0;
+    std::string waveform       = "sine"; ///< "sine" or the resolved path of a CSV (time_s, current_A)
+    static DriveParameters from_case(const CaseFile &file);
+  };
+
+  struct SolverParameters
+  {
+    double      relative_tolerance = 1e-6;
+    double      absolute_tolerance_factor = 1.0; ///< atol_i = factor * rtol * typical size of state i
+    std::string jacobian           = "analytic"; ///< or "finite-difference"
+    double      samples_per_cycle  = 200;
+    double      max_steps_per_cycle = 1e6;
+    static SolverParameters from_case(const CaseFile &file);
+  };
+
+  struct SystemParameters
+  {
+    FluidParameters       fluid;
+    TransducerParameters  transducer;
+    ChamberParameters     chamber;
+    ReedParameters        reed;
+    ValveParameters       valves;
+    LineParameters        lines;
+    CylinderParameters    cylinder;
+    AccumulatorParameters accumulator;
+    LoadParameters        load;
+    DriveParameters       drive;
+    SolverParameters      solver;
+
+    static SystemParameters from_case(const CaseFile &file);
+    /// All inputs and the derived model constants, for summaries.
+    nlohmann::json to_json() const;
+  };
+} // namespace rectify::system

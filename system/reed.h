@@ -1,0 +1,60 @@
+// One reed valve tip as a 1-DOF oscillator on a seat (thesis eqs. 3.9, 3.10):
+//
+//   m x'' + b x' + k x = F,   x >= 0,
+//
+// F the opening pressure force. The seat is a contact event, not a clamp:
+// a free reed is stopped when x falls through 0 (root of x), a seated reed
+// lifts when F exceeds a tiny threshold (root of lift_force - F). The model
+// and the tests use these same functions.
+#pragma once
+
+#include <algorithm>
+
+namespace rectify::system
+{
+  struct ReedConstants
+  {
+    double stiffness;   ///< k [N/m]
+    double mass;        ///< m [kg]
+    double damping;     ///< b [N s/m]
+    double area;        ///< A_r [m^2]: F = dp * A_r
+    double restitution; ///< rebound speed / impact speed, in [0, 1)
+  };
+
+  /// A seated reed lifts when its opening force exceeds this (1e-9 N, five
+  /// orders below 1 Pa on A_r). It must not be 0: a root function that starts
+  /// an integration segment at exactly 0 is masked by CVODE.
+  inline constexpr double reed_lift_force = 1e-9;
+
+  /// x'' of a free reed.
+  inline double reed_acceleration(const ReedConstants &c, double x, double v, double force)
+  {
+    return (force - c.damping * v - c.stiffness * x) / c.mass;
+  }
+
+  /// Root function: crosses zero from above at lift-off (seated) or impact (free).
+  inline double reed_root(bool seated, double x, double force)
+  {
+    return seated ? reed_lift_force - force : x;
+  }
+
+  /// Applies a located root to (x, v) and returns whether the reed is now
+  /// seated. At impact `force` is the opening force with the reed at x = 0.
+  inline bool reed_on_root(const ReedConstants &c, bool seated, double force, double &x, double &v)
+  {
+    x = 0.0;
+    if (seated)
+      { // lift-off from rest
+        v = 0.0;
+        return false;
+      }
+    const double rebound = c.restitution * std::max(-v, 0.0);
+    if (force <= reed_lift_force && rebound < 1e-6)
+      {
+        v = 0.0; // stays on the seat
+        return true;
+      }
+    v = rebound; // bounces, or (force > 0) leaves again from rest
+    return false;
+  }
+} // namespace rectify::system

@@ -1,0 +1,285 @@
+#include "system/simulation.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <deque>
+
+#include "common/case_file.h"
+
+namespace rectify::system
+{
+  nlohmann::json to_json(const IntegratorStats &s)
+  {
+    return {{"steps", s.steps},
+            {"rhs_evaluations", s.rhs_evaluations},
+            {"jacobian_evaluations", s.jacobian_evaluations},
+            {"rhs_evaluations_for_fd_jacobian", s.rhs_evaluations_for_fd_jacobian},
+            {"nonlinear_iterations", s.nonlinear_iterations},
+            {"nonlinear_convergence_failures", s.nonlinear_convergence_failures},
+            {"error_test_failures", s.error_test_failures},
+            {"root_function_evaluations", s.root_function_evaluations},
+            {"events", s.events},
+            {"reinitialisations", s.reinitialisations}};
+  }
+
+  nlohmann::json RunResult::to_json() const
+  {
+    return {{"frequency_Hz", frequency_Hz},
+            {"stored_pressure_Pa", stored_pressure_Pa},
+            {"mean_velocity_m_per_s", mean_velocity_m_per_s},
+            {"window_start_s", start_time_s},
+            {"window_end_s", end_time_s},
+            {"startup_cycles", n_startup_cycles},
+            {"measured_cycles", n_measured_cycles},
+            {"settled", settled},
+            {"wall_time_s", wall_time_s},
+            {"volume_balance_rel_error", volume_balance_rel_error},
+            {"max_outlet_reed_opening_m", max_outlet_reed_opening_m},
+            {"max_inlet_reed_opening_m", max_inlet_reed_opening_m},
+            {"min_reed_opening_m", min_reed_opening_m},
+            {"min_absolute_chamber_pressure_Pa", min_absolute_chamber_pressure_Pa},
+            {"piston_stroke_m", piston_stroke_m},
+            {"pumped_volume_m3", pumped_volume_m3},
+            {"seat_impacts", n_seat_impacts},
+            {"samples_beyond_map", n_samples_beyond_map},
+            {"warnings", warnings},
+            {"cvode", system::to_json(stats)}};
+  }
+
+  IntegratorOptions integrator_options(const Model &model, const RunOptions &options)
+  {
+    IntegratorOptions o;
+    o.relative_tolerance = options.relative_tolerance;
+    for (double s : model.typical_sizes())
+      o.absolute_tolerances.push_back(options.absolute_tolerance_factor *
+                                      options.relative_tolerance * s);
+    o.finite_difference_jacobian = options.finite_difference_jacobian;
+    o.max_steps_between_outputs  = std::max<long>(
+      500, options.max_steps_per_cycle / static_cast<long>(options.samples_per_cycle));
+    return o;
+  }
+
+  namespace
+  {
+    const std::vector<std::string> series_columns{
+      "time_s",
+      "current_A",
+      "piston_m",
+      "fluid_mass_m",
+      "actuator_m",
+      "actuator_velocity_m_per_s",
+      "outlet_reed_m",
+      "inlet_reed_m",
+      "chamber_pressure_Pa",
+      "accumulator_pressure_Pa",
+      "high_pressure_Pa",
+      "low_pressure_Pa",
+      "outlet_pressure_Pa",
+      "inlet_pressure_Pa",
+      "outlet_flow_m3_per_s",
+      "inlet_flow_m3_per_s",
+      "piston_flow_m3_per_s",
+      "outlet_resistance_Pa_s_per_m3",
+      "inlet_resistance_Pa_s_per_m3"};
+
+    /// Decides when the cycle means of the settling metric have settled:
+    /// blocks of `block` cycles; settled when the last two block-to-block
+    /// changes are within the threshold, or when they shrink geometrically and
+    /// the extrapolated remaining drift is (Aitken's delta-squared).
+    class SettleDetector
+    {
+    public:
+      SettleDetector(double tolerance, std::size_t block)
+        : tolerance_(tolerance)
+        , block_(block)
+      {}
+
+      bool add(double cycle_mean)
+      {
+        means_.push_back(cycle_mean);
+        largest_ = std::max(largest_, std::abs(cycle_mean));
+        if (means_.size() < 3 * block_ || means_.size() % block_ != 0)
+          return false;
+        double m[3] = {0, 0, 0};
+        for (std::size_t b = 0; b < 3; ++b)
+          for (std::size_t i = 0; i < block_; ++i)
+            m[b] += means_[means_.size() - (3 - b) * block_ + i] / static_cast<double>(block_);
+        const double threshold = tolerance_ * std::max(std::abs(m[2]), 0.05 * largest_);
+        const double d1 = m[1] - m[0], d2 = m[2] - m[1];
+        if (std::abs(d1) <= threshold && std::abs(d2) <= threshold)
+          return true;
+        const double ratio = d1 != 0.0 ? d2 / d1 : 1.0;
+        return ratio > 0.0 && ratio < 0.9 && std::abs(d2 * ratio / (1.0 - ratio)) <= threshold &&
+               std::abs(d2) <= 10 * threshold;
+      }
+
+    private:
+      double              tolerance_;
+      std::size_t         block_;
+      std::vector<double> means_;
+      double              largest_ = 0;
+    };
+  } // namespace
+
+  RunResult run(Model &model, const RunOptions &options)
+  {
+    using namespace state;
+    const auto   wall_start = std::chrono::steady_clock::now();
+    const double f          = model.drive().frequency_Hz();
+    const double period     = 1.0 / f;
+    const auto  &c          = model.constants();
+
+    if (!options.settle)
+      model.drive().check_covers(static_cast<double>(options.n_cycles) * period);
+    if (options.n_cycles == 0)
+      throw InputError("number of cycles must be >= 1");
+
+    model.reset();
+    const std::vector<double> y0 = model.initial_state();
+    Integrator                integrator(model, 0.0, y0, integrator_options(model, options));
+
+    RunResult result;
+    result.frequency_Hz = f;
+    if (options.record)
+      result.series.emplace(series_columns);
+
+    const std::size_t spc = std::max<std::size_t>(options.samples_per_cycle, 4);
+    SettleDetector    settle(options.settle_tolerance, 5);
+    const bool        pressure_metric = model.scenario() == Scenario::no_flow;
+    const double      map_max         = model.resistance_map().max_opening();
+
+    std::vector<double> window_start_state = y0;
+    double              window_start_time  = 0.0;
+    std::size_t         cycle              = 0;
+    bool                measuring          = !options.settle;
+    double              x_p_min = 1e300, x_p_max = -1e300;
+    double              min_reed = 0.0, max_ro = 0.0, max_ri = 0.0, min_p_ch = 1e300;
+    std::vector<double> row(series_columns.size());
+
+    while (true)
+      {
+        const std::vector<double> cycle_start(integrator.state().begin(),
+                                              integrator.state().end());
+        for (std::size_t k = 1; k <= spc; ++k)
+          {
+            const double t = (static_cast<double>(cycle) + static_cast<double>(k) /
+                                                             static_cast<double>(spc)) *
+                             period;
+            integrator.advance_to(t);
+            const auto  y  = integrator.state();
+            const Flows fl = model.flows(y);
+            min_reed       = std::min({min_reed, y[outlet_reed_x], y[inlet_reed_x]});
+            if (measuring)
+              {
+                x_p_min  = std::min(x_p_min, y[piston_x]);
+                x_p_max  = std::max(x_p_max, y[piston_x]);
+                max_ro   = std::max(max_ro, y[outlet_reed_x]);
+                max_ri   = std::max(max_ri, y[inlet_reed_x]);
+                min_p_ch = std::min(min_p_ch, y[chamber_p]);
+              }
+            if (std::max(y[outlet_reed_x], y[inlet_reed_x]) > map_max)
+              ++result.n_samples_beyond_map;
+            if (result.series)
+              {
+                row = {t,
+                       model.drive().current_A(t),
+                       y[piston_x],
+                       y[fluid_x],
+                       y[actuator_x],
+                       y[actuator_v],
+                       y[outlet_reed_x],
+                       y[inlet_reed_x],
+                       y[chamber_p],
+                       y[accumulator_p],
+                       y[high_p],
+                       y[low_p],
+                       fl.p_outlet,
+                       fl.p_inlet,
+                       fl.q_outlet,
+                       fl.q_inlet,
+                       c.A_pi * y[piston_v],
+                       fl.R1,
+                       fl.R2};
+                result.series->add_row(row);
+              }
+          }
+        ++cycle;
+        const auto   y          = integrator.state();
+        const double cycle_mean = pressure_metric ?
+                                    (y[outlet_pressure_integral] -
+                                     cycle_start[outlet_pressure_integral]) / period :
+                                    (y[actuator_x] - cycle_start[actuator_x]) / period;
+        if (!measuring)
+          {
+            const bool done = settle.add(cycle_mean);
+            if (done || cycle >= options.max_startup_cycles)
+              {
+                result.settled           = done;
+                result.n_startup_cycles  = cycle;
+                measuring                = true;
+                window_start_state.assign(y.begin(), y.end());
+                window_start_time = integrator.time();
+              }
+            continue;
+          }
+        if (cycle - result.n_startup_cycles >= options.n_cycles)
+          break;
+      }
+
+    const auto   y  = integrator.state();
+    const double T  = integrator.time() - window_start_time;
+    const auto   d  = [&](std::size_t i) { return y[i] - window_start_state[i]; };
+    result.start_time_s          = window_start_time;
+    result.end_time_s            = integrator.time();
+    result.n_measured_cycles     = cycle - result.n_startup_cycles;
+    result.stored_pressure_Pa    = d(outlet_pressure_integral) / T; // eq. 5.1
+    result.mean_velocity_m_per_s = d(actuator_x) / T;               // eq. 5.2
+    result.piston_stroke_m       = x_p_max - x_p_min;
+    result.pumped_volume_m3      = d(outlet_volume);
+    result.max_outlet_reed_opening_m = max_ro;
+    result.max_inlet_reed_opening_m  = max_ri;
+    result.min_reed_opening_m        = min_reed;
+    result.n_seat_impacts            = model.n_seat_impacts();
+    result.stats                     = integrator.stats();
+
+    // Volume balances over the whole run (from rest): each holds exactly for
+    // the equations, so what is left is the integration error.
+    //   outlet valve:  V_out = C_h dp_h + A_po dx_act
+    //   inlet valve:   V_in  = -C_acc dp_acc - C_l dp_l + A_po dx_act
+    //   chamber:       C_ch dp_ch = A_pi dx_p + V_in - V_out
+    const double scale = std::max({std::abs(y[outlet_volume]), std::abs(y[inlet_volume]),
+                                   c.A_pi * std::abs(y[piston_x]), c.A_pi * 1e-9});
+    const double e_out =
+      y[outlet_volume] - (c.C_h * y[high_p] + c.A_po * y[actuator_x]);
+    const double e_in = y[inlet_volume] - (-c.C_acc * y[accumulator_p] - c.C_l * y[low_p] +
+                                           c.A_po * y[actuator_x]);
+    const double e_ch =
+      c.C_ch * y[chamber_p] - (c.A_pi * y[piston_x] + y[inlet_volume] - y[outlet_volume]);
+    result.volume_balance_rel_error =
+      std::max({std::abs(e_out), std::abs(e_in), std::abs(e_ch)}) / scale;
+
+    result.min_absolute_chamber_pressure_Pa = c.p_bias + min_p_ch;
+    if (result.min_absolute_chamber_pressure_Pa < 0.0)
+      result.warnings.push_back(
+        "the chamber pressure falls to " + format_number(result.min_absolute_chamber_pressure_Pa) +
+        " Pa absolute: the oil would cavitate, which the model does not represent");
+    if (result.n_samples_beyond_map > 0 && c.out_of_range == maps::OutOfRange::error)
+      throw InputError("a reed opened to " + format_number(std::max(max_ro, max_ri)) +
+                       " m, beyond the last node of resistance map '" +
+                       model.resistance_map().name() + "' (" + format_number(map_max) +
+                       " m), and [valves] out_of_range = 'error'");
+    if (!result.settled)
+      result.warnings.push_back("not settled after " + std::to_string(result.n_startup_cycles) +
+                                " start-up cycles");
+    if (result.n_samples_beyond_map > 0)
+      result.warnings.push_back(std::to_string(result.n_samples_beyond_map) +
+                                " samples with a reed opening beyond the map's last node (" +
+                                format_number(map_max) + " m): R held at its last value");
+    if (min_reed < -1e-9)
+      result.warnings.push_back("a reed passed its seat by " + format_number(-min_reed) + " m");
+    result.wall_time_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+    return result;
+  }
+} // namespace rectify::system

@@ -1,0 +1,63 @@
+// One run of the model under a scenario: integrate, record, and reduce to the
+// thesis's metrics (stored pressure, eq. 5.1; mean actuator velocity, eq. 5.2).
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <optional>
+
+#include "common/io.h"
+#include "system/model.h"
+
+namespace rectify::system
+{
+  struct RunOptions
+  {
+    std::size_t n_cycles = 10; ///< fixed-length run: cycles simulated (no settling)
+    /// Adaptive start-up: run until the cycle-mean metric is settled, then
+    /// measure `n_cycles` more. Off: the metrics are means over the whole run,
+    /// as eqs. 5.1 and 5.2 define them.
+    bool        settle             = false;
+    std::size_t max_startup_cycles = 3000;
+    double      settle_tolerance   = 2e-3; ///< relative, see docs/system-model.md
+    bool        record             = false; ///< keep a time series
+    std::size_t samples_per_cycle  = 200;
+    double      relative_tolerance = 1e-6;
+    double      absolute_tolerance_factor = 1.0;
+    bool        finite_difference_jacobian = false;
+    long        max_steps_per_cycle        = 1000000;
+  };
+
+  struct RunResult
+  {
+    double      frequency_Hz = 0;
+    double      stored_pressure_Pa    = 0; ///< mean p_o over the measured window (eq. 5.1)
+    double      mean_velocity_m_per_s = 0; ///< mean dx_act/dt over the measured window (eq. 5.2)
+    double      start_time_s = 0, end_time_s = 0; ///< the measured window
+    std::size_t n_startup_cycles = 0, n_measured_cycles = 0;
+    bool        settled = true;
+    double      wall_time_s = 0;
+    IntegratorStats stats;
+    // checks and diagnostics
+    double      volume_balance_rel_error = 0; ///< max over the three balances, see .cpp
+    double      max_outlet_reed_opening_m = 0, max_inlet_reed_opening_m = 0;
+    double      min_reed_opening_m = 0; ///< must be >= 0 (seat), up to round-off
+    double      min_absolute_chamber_pressure_Pa = 0;
+    double      piston_stroke_m = 0; ///< max - min piston position over the measured window
+    double      pumped_volume_m3 = 0; ///< net volume through the outlet valve, measured window
+    std::size_t n_seat_impacts = 0;
+    std::size_t n_samples_beyond_map = 0;
+    std::vector<std::string> warnings;
+    std::optional<CsvTable> series;
+
+    nlohmann::json to_json() const;
+  };
+
+  /// Runs the model from rest (all pressures at the bias, valves closed).
+  /// Model::reset() is called first, so one Model serves many runs.
+  RunResult run(Model &model, const RunOptions &options);
+
+  /// Integrator options from the model and the run options.
+  IntegratorOptions integrator_options(const Model &model, const RunOptions &options);
+
+  nlohmann::json to_json(const IntegratorStats &stats);
+} // namespace rectify::system

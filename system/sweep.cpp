@@ -1,0 +1,264 @@
+#include "system/sweep.h"
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <mutex>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include "common/case_file.h"
+#include "common/io.h"
+#include "common/progress.h"
+
+namespace rectify::system
+{
+  SweepSeries parse_sweep_series(const std::string &name)
+  {
+    if (name == "dynamic")
+      return {name, ValveModel::dynamic, 1.0, 1.0};
+    if (name == "ideal")
+      return {name, ValveModel::ideal, 1.0, 1.0};
+    if (name == "reed-whatif")
+      return {name, ValveModel::dynamic, 3.0, 0.5};
+    throw InputError("unknown sweep series '" + name + "' (dynamic, ideal, reed-whatif)");
+  }
+
+  std::vector<double> frequency_grid(double from_Hz, double to_Hz, std::size_t n, bool log_spacing)
+  {
+    if (!(from_Hz > 0) || !(to_Hz >= from_Hz) || !std::isfinite(to_Hz))
+      throw InputError("frequency range " + format_number(from_Hz) + " .. " +
+                       format_number(to_Hz) + " Hz: need 0 < from <= to");
+    if (n == 0 || (n == 1 && to_Hz != from_Hz))
+      throw InputError("--n " + std::to_string(n) + ": need at least 2 frequencies for a range");
+    std::vector<double> f(n);
+    for (std::size_t i = 0; i < n; ++i)
+      {
+        const double s = n == 1 ? 0.0 : static_cast<double>(i) / static_cast<double>(n - 1);
+        f[i] = log_spacing ? from_Hz * std::pow(to_Hz / from_Hz, s)
+                           : from_Hz + s * (to_Hz - from_Hz);
+      }
+    return f;
+  }
+
+  namespace
+  {
+    const char *partial_name     = "sweep-partial.csv";
+    const char *fingerprint_name = "sweep-partial.json";
+
+    std::string point_line(const SweepPoint &p)
+    {
+      char buf[512];
+      std::snprintf(buf, sizeof(buf), "%s,%.17g,%.17g,%.17g,%d,%zu,%zu,%.6g,%.6g,%ld,%ld,%ld,%ld,%zu\n",
+                    p.series.c_str(), p.frequency_Hz, p.stored_pressure_Pa,
+                    p.mean_velocity_m_per_s, p.settled ? 1 : 0, p.startup_cycles,
+                    p.measured_cycles, p.wall_time_s, p.volume_balance_rel_error, p.steps,
+                    p.rhs_evaluations, p.jacobian_evaluations, p.events, p.warnings);
+      return buf;
+    }
+
+    bool parse_point(const std::string &line, SweepPoint &p)
+    {
+      std::istringstream       in(line);
+      std::vector<std::string> cell;
+      std::string              c;
+      while (std::getline(in, c, ','))
+        cell.push_back(c);
+      if (cell.size() != 14)
+        return false;
+      try
+        {
+          int settled   = 0;
+          p.series      = cell[0];
+          p.frequency_Hz = std::stod(cell[1]);
+          p.stored_pressure_Pa = std::stod(cell[2]);
+          p.mean_velocity_m_per_s = std::stod(cell[3]);
+          settled                 = std::stoi(cell[4]);
+          p.settled               = settled != 0;
+          p.startup_cycles        = std::stoul(cell[5]);
+          p.measured_cycles       = std::stoul(cell[6]);
+          p.wall_time_s           = std::stod(cell[7]);
+          p.volume_balance_rel_error = std::stod(cell[8]);
+          p.steps                 = std::stol(cell[9]);
+          p.rhs_evaluations       = std::stol(cell[10]);
+          p.jacobian_evaluations  = std::stol(cell[11]);
+          p.events                = std::stol(cell[12]);
+          p.warnings              = std::stoul(cell[13]);
+        }
+      catch (const std::exception &)
+        {
+          return false;
+        }
+      return true;
+    }
+
+    std::string key(const std::string &series, double f)
+    {
+      char buf[64];
+      std::snprintf(buf, sizeof(buf), "%.17g", f);
+      return series + "@" + buf;
+    }
+  } // namespace
+
+  SweepResult run_sweep(const SystemParameters &parameters, const SweepOptions &options,
+                        const std::filesystem::path &out_dir)
+  {
+    const auto wall_start = std::chrono::steady_clock::now();
+    if (options.series.empty() || options.frequencies_Hz.empty())
+      throw InputError("sweep: nothing to run (no series or no frequencies)");
+
+    // Everything that changes a result goes into the fingerprint.
+    nlohmann::json fingerprint = {{"scenario", to_string(options.scenario)},
+                                  {"current_pp_A", options.current_pp_A},
+                                  {"current_bias_A", options.current_bias_A},
+                                  {"settle", options.run.settle},
+                                  {"n_cycles", options.run.n_cycles},
+                                  {"settle_tolerance", options.run.settle_tolerance},
+                                  {"max_startup_cycles", options.run.max_startup_cycles},
+                                  {"relative_tolerance", options.run.relative_tolerance},
+                                  {"absolute_tolerance_factor", options.run.absolute_tolerance_factor},
+                                  {"finite_difference_jacobian", options.run.finite_difference_jacobian},
+                                  {"parameters", parameters.to_json()}};
+
+    // Resume: read what a previous run with the same settings finished.
+    const auto  partial = out_dir / partial_name;
+    const auto  fp_path = out_dir / fingerprint_name;
+    std::map<std::string, SweepPoint> done;
+    if (std::filesystem::exists(partial))
+      {
+        nlohmann::json old;
+        try
+          {
+            std::ifstream in(fp_path);
+            old = nlohmann::json::parse(in);
+          }
+        catch (const std::exception &)
+          {
+            old = nullptr;
+          }
+        if (old != fingerprint)
+          throw InputError("'" + out_dir.string() +
+                           "' holds a partial sweep run with other settings (" +
+                           fp_path.string() +
+                           "); choose another --out, or delete its sweep-partial.* files");
+        std::ifstream in(partial);
+        std::string   line;
+        while (std::getline(in, line))
+          {
+            SweepPoint p;
+            if (!in.eof() && parse_point(line, p)) // a last line without newline was cut off
+              done[key(p.series, p.frequency_Hz)] = p;
+          }
+      }
+    else
+      write_json(fp_path, fingerprint);
+
+    struct Job
+    {
+      SweepSeries series;
+      double      frequency;
+    };
+    std::vector<Job> jobs;
+    for (const auto &s : options.series)
+      for (double f : options.frequencies_Hz)
+        if (!done.count(key(s.name, f)))
+          jobs.push_back({s, f});
+    // Expensive jobs first (high frequencies settle in more cycles) for a balanced finish.
+    std::stable_sort(jobs.begin(), jobs.end(),
+                     [](const Job &a, const Job &b) { return a.frequency > b.frequency; });
+
+    SweepResult result;
+    result.n_resumed = done.size();
+    const std::size_t n_total = options.series.size() * options.frequencies_Hz.size();
+    Progress          progress("sweep", n_total, done.size(), options.quiet);
+
+    std::FILE *log = std::fopen(partial.c_str(), "a");
+    if (!log)
+      throw std::runtime_error("cannot append to '" + partial.string() + "'");
+    std::mutex               mutex;
+    std::atomic<std::size_t> next{0};
+    std::exception_ptr       failure;
+    const unsigned           n_threads = std::max(
+      1u, std::min<unsigned>(options.jobs ? options.jobs : std::thread::hardware_concurrency(),
+                             static_cast<unsigned>(jobs.size())));
+
+    auto worker = [&]() {
+      try
+        {
+          while (true)
+            {
+              const std::size_t i = next++;
+              if (i >= jobs.size())
+                return;
+              {
+                std::lock_guard<std::mutex> lock(mutex);
+                if (failure)
+                  return;
+              }
+              const Job       &job = jobs[i];
+              SystemParameters p   = parameters;
+              p.reed.stiffness_N_per_m *= job.series.stiffness_factor;
+              p.reed.effective_mass_kg *= job.series.mass_factor;
+              Model model(p, maps::ResistanceMap::read(p.valves.resistance_map,
+                                                       maps::parse_interpolation(p.valves.interpolation)),
+                          job.series.valves, options.scenario,
+                          Drive::sine(job.frequency, options.current_pp_A, options.current_bias_A));
+              const RunResult r = run(model, options.run);
+              SweepPoint      pt{job.series.name,
+                            job.frequency,
+                            r.stored_pressure_Pa,
+                            r.mean_velocity_m_per_s,
+                            r.settled,
+                            r.n_startup_cycles,
+                            r.n_measured_cycles,
+                            r.wall_time_s,
+                            r.volume_balance_rel_error,
+                            r.stats.steps,
+                            r.stats.rhs_evaluations,
+                            r.stats.jacobian_evaluations,
+                            r.stats.events,
+                            r.warnings.size()};
+              {
+                std::lock_guard<std::mutex> lock(mutex);
+                const std::string           line = point_line(pt);
+                std::fwrite(line.data(), 1, line.size(), log);
+                std::fflush(log);
+                done[key(pt.series, pt.frequency_Hz)] = pt;
+              }
+              char what[160];
+              std::snprintf(what, sizeof(what), "%s %.4g Hz: %s %.4g, %zu+%zu cycles, %.2f s",
+                            pt.series.c_str(), pt.frequency_Hz,
+                            options.scenario == Scenario::no_flow ? "p_str [Pa]" : "v [m/s]",
+                            options.scenario == Scenario::no_flow ? pt.stored_pressure_Pa
+                                                                  : pt.mean_velocity_m_per_s,
+                            pt.startup_cycles, pt.measured_cycles, pt.wall_time_s);
+              progress.step(what);
+            }
+        }
+      catch (...)
+        {
+          std::lock_guard<std::mutex> lock(mutex);
+          if (!failure)
+            failure = std::current_exception();
+        }
+    };
+    std::vector<std::thread> threads;
+    for (unsigned t = 0; t < n_threads && !jobs.empty(); ++t)
+      threads.emplace_back(worker);
+    for (auto &t : threads)
+      t.join();
+    std::fclose(log);
+    if (failure)
+      std::rethrow_exception(failure);
+
+    for (const auto &s : options.series)
+      for (double f : options.frequencies_Hz)
+        result.points.push_back(done.at(key(s.name, f)));
+    result.wall_time_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+    return result;
+  }
+} // namespace rectify::system

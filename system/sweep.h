@@ -1,0 +1,65 @@
+// Frequency sweeps (thesis Figs. 5.3, 5.4, 5.6): one settled run per
+// frequency and series, in parallel, with progress, resumable. Every finished
+// run is appended at once to DIR/sweep-partial.csv; a killed sweep started
+// again with the same settings continues where it stopped and never repeats
+// or loses a finished run.
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "system/simulation.h"
+
+namespace rectify::system
+{
+  /// One curve of a sweep: a valve model and, for the what-if, reed scalings.
+  struct SweepSeries
+  {
+    std::string name;
+    ValveModel  valves           = ValveModel::dynamic;
+    double      stiffness_factor = 1.0;
+    double      mass_factor      = 1.0;
+  };
+
+  /// "dynamic", "ideal", "reed-whatif" (k_r x3, m_r x0.5: thesis sec. 5.2.2).
+  SweepSeries parse_sweep_series(const std::string &name);
+
+  struct SweepOptions
+  {
+    Scenario                 scenario = Scenario::loaded;
+    std::vector<double>      frequencies_Hz;
+    std::vector<SweepSeries> series;
+    double                   current_pp_A = 20, current_bias_A = 10;
+    RunOptions               run; ///< settle, n_cycles (measured), tolerances
+    unsigned                 jobs  = 0; ///< 0: all cores
+    bool                     quiet = false;
+  };
+
+  struct SweepPoint
+  {
+    std::string series;
+    double      frequency_Hz, stored_pressure_Pa, mean_velocity_m_per_s;
+    bool        settled;
+    std::size_t startup_cycles, measured_cycles;
+    double      wall_time_s, volume_balance_rel_error;
+    long        steps, rhs_evaluations, jacobian_evaluations, events;
+    std::size_t warnings;
+  };
+
+  struct SweepResult
+  {
+    std::vector<SweepPoint> points; ///< ordered by series, then frequency
+    std::size_t             n_resumed = 0;
+    double                  wall_time_s = 0;
+  };
+
+  /// Runs the sweep, checkpointing into `out_dir` (which must exist).
+  SweepResult run_sweep(const SystemParameters &parameters, const SweepOptions &options,
+                        const std::filesystem::path &out_dir);
+
+  /// `n` frequencies from `from` to `to`, log- or linearly spaced.
+  std::vector<double> frequency_grid(double from_Hz, double to_Hz, std::size_t n, bool log_spacing);
+} // namespace rectify::system
