@@ -209,7 +209,7 @@ namespace rectify::app
       unsigned                 jobs    = 0;
       bool                     quiet   = false;
       double                   settle_tolerance = 2e-3;
-      std::size_t              max_startup      = 3000;
+      std::size_t              max_startup      = 1000;
     };
 
     void sweep(const SweepCommandOptions &o)
@@ -241,6 +241,10 @@ namespace rectify::app
       s.run.n_cycles           = o.cycles;
       s.run.settle_tolerance   = o.settle_tolerance;
       s.run.max_startup_cycles = o.max_startup;
+      // A sweep records no time series: a few samples a cycle serve the
+      // diagnostics (reed openings, chamber pressure); the solution itself
+      // does not depend on them (CVODE interpolates to each sample).
+      s.run.samples_per_cycle  = 16;
       s.jobs                   = o.jobs;
       s.quiet                  = o.quiet;
 
@@ -267,15 +271,16 @@ namespace rectify::app
       // Long table: every run with its diagnostics.
       const bool  pressure = scenario == system::Scenario::no_flow;
       std::string long_csv =
-        "series,frequency_Hz,stored_pressure_Pa,mean_velocity_m_per_s,settled,startup_cycles,"
-        "measured_cycles,wall_time_s,volume_balance_rel_error,cvode_steps,rhs_evaluations,"
-        "jacobian_evaluations,events\n";
+        "series,frequency_Hz,stored_pressure_Pa,mean_velocity_m_per_s,settled,metric_stderr,regime,"
+        "startup_cycles,measured_cycles,wall_time_s,volume_balance_rel_error,cvode_steps,"
+        "rhs_evaluations,jacobian_evaluations,events\n";
       for (const auto &pt : r.points)
         {
           char buf[400];
-          std::snprintf(buf, sizeof(buf), "%s,%.10g,%.10g,%.10g,%d,%zu,%zu,%.4g,%.3g,%ld,%ld,%ld,%ld\n",
+          std::snprintf(buf, sizeof(buf), "%s,%.10g,%.10g,%.10g,%d,%.4g,%s,%zu,%zu,%.4g,%.3g,%ld,%ld,%ld,%ld\n",
                         pt.series.c_str(), pt.frequency_Hz, pt.stored_pressure_Pa,
-                        pt.mean_velocity_m_per_s, pt.settled ? 1 : 0, pt.startup_cycles,
+                        pt.mean_velocity_m_per_s, pt.settled ? 1 : 0, pt.metric_stderr,
+                        pt.regime.c_str(), pt.startup_cycles,
                         pt.measured_cycles, pt.wall_time_s, pt.volume_balance_rel_error, pt.steps,
                         pt.rhs_evaluations, pt.jacobian_evaluations, pt.events);
           long_csv += buf;
@@ -291,24 +296,30 @@ namespace rectify::app
       const std::size_t nf = s.frequencies_Hz.size();
       nlohmann::json    per_series = nlohmann::json::object();
       long              total_steps = 0;
-      std::size_t       n_unsettled = 0;
+      std::size_t       n_unsettled = 0, n_periodic = 0;
       double            sum_cycles = 0, sum_wall = 0;
       for (std::size_t si = 0; si < names.size(); ++si)
         {
           nlohmann::json values = nlohmann::json::array(), walls = nlohmann::json::array(),
-                         settled = nlohmann::json::array();
+                         settled = nlohmann::json::array(), stderrs = nlohmann::json::array(),
+                         regimes = nlohmann::json::array();
           for (std::size_t i = 0; i < nf; ++i)
             {
               const auto &pt = r.points[si * nf + i];
               values.push_back(pressure ? pt.stored_pressure_Pa : pt.mean_velocity_m_per_s);
               walls.push_back(pt.wall_time_s);
               settled.push_back(pt.settled);
+              stderrs.push_back(pt.metric_stderr);
+              regimes.push_back(pt.regime);
+              n_periodic += pt.regime == "non-periodic" ? 0 : 1;
               total_steps += pt.steps;
               n_unsettled += pt.settled ? 0 : 1;
               sum_cycles += static_cast<double>(pt.startup_cycles + pt.measured_cycles);
               sum_wall += pt.wall_time_s;
             }
-          per_series[names[si]] = {{metric, values}, {"wall_time_s", walls}, {"settled", settled}};
+          per_series[names[si]] = {{metric, values},      {"stderr", stderrs},
+                                   {"regime", regimes},   {"wall_time_s", walls},
+                                   {"settled", settled}};
         }
       for (std::size_t i = 0; i < nf; ++i)
         {
@@ -348,6 +359,7 @@ namespace rectify::app
         {"sweep_wall_time_s", r.wall_time_s},
         {"runs_resumed", r.n_resumed},
         {"runs_not_settled", n_unsettled},
+        {"runs_periodic", n_periodic},
         {"mean_cycles_per_run", sum_cycles / static_cast<double>(r.points.size())},
         {"cpu_time_per_cycle_s", sum_wall / sum_cycles},
         {"cvode_steps_total", total_steps},
@@ -356,12 +368,15 @@ namespace rectify::app
         {"definitions",
          {{"stored_pressure_Pa", "eq. 5.1 over the measured cycles after a settled start-up; gauge about the bias pressure"},
           {"mean_velocity_m_per_s", "eq. 5.2 over the measured cycles after a settled start-up"},
-          {"wall_time_s", "per run, on one thread"}}},
+          {"wall_time_s", "per run, on one thread"},
+          {"stderr", "standard error of the mean from 10 batch means: the sampling uncertainty of a non-periodic (fluttering) run"},
+          {"regime", "periodic, period-k or non-periodic, from the states at the ends of the last cycles"}}},
         {"parameters", p.to_json()},
         {"files", {"sweep.csv", "sweep-runs.csv", plotted ? "sweep.png" : "", plotted ? "sweep.svg" : ""}}};
       write_json(out / "summary.json", summary);
-      std::printf("%zu runs (%zu resumed) in %.1f s; %zu not settled; %.3g s CPU per cycle\n",
-                  r.points.size(), r.n_resumed, r.wall_time_s, n_unsettled, sum_wall / sum_cycles);
+      std::printf("%zu runs (%zu resumed) in %.1f s; %zu periodic, %zu not settled; %.3g s CPU per cycle\n",
+                  r.points.size(), r.n_resumed, r.wall_time_s, n_periodic, n_unsettled,
+                  sum_wall / sum_cycles);
       std::printf("wrote %s\n", (out / "summary.json").c_str());
     }
   } // namespace

@@ -135,6 +135,8 @@ namespace rectify::system
     bool closed(std::size_t v) const { return closed_[v]; }
     /// Sets the discrete state: both valves closed, reeds on their seats.
     void reset();
+    /// Sets one valve's discrete state (tests, and starting from a given state).
+    void set_closed(std::size_t v, bool closed) { closed_[v] = closed; }
     std::size_t n_seat_impacts() const { return n_impacts_; }
 
     const ModelConstants       &constants() const { return c_; }

@@ -113,7 +113,7 @@ namespace rectify::system
 
   struct SolverParameters
   {
-    double      relative_tolerance = 1e-6;
+    double      relative_tolerance = 1e-5;
     double      absolute_tolerance_factor = 1.0; ///< atol_i = factor * rtol * typical size of state i
     std::string jacobian           = "analytic"; ///< or "finite-difference"
     double      samples_per_cycle  = 200;

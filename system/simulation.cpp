@@ -1,6 +1,7 @@
 #include "system/simulation.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <deque>
@@ -33,6 +34,8 @@ namespace rectify::system
             {"startup_cycles", n_startup_cycles},
             {"measured_cycles", n_measured_cycles},
             {"settled", settled},
+            {"metric_stderr", metric_stderr},
+            {"regime", regime},
             {"wall_time_s", wall_time_s},
             {"volume_balance_rel_error", volume_balance_rel_error},
             {"max_outlet_reed_opening_m", max_outlet_reed_opening_m},
@@ -120,6 +123,55 @@ namespace rectify::system
       std::vector<double> means_;
       double              largest_ = 0;
     };
+
+    /// States compared at the ends of cycles to find the period (not the
+    /// actuator position, which drifts when loaded, nor the integrals).
+    constexpr std::array<std::size_t, 12> section_states{
+      state::piston_x,      state::piston_v,      state::fluid_x,      state::fluid_v,
+      state::actuator_v,    state::outlet_reed_x, state::outlet_reed_v, state::inlet_reed_x,
+      state::inlet_reed_v,  state::chamber_p,     state::high_p,        state::low_p};
+
+    /// "periodic", "period-k" or "non-periodic" from the Poincare sections
+    /// (states at the ends of cycles), each state scaled by its range over
+    /// the window's samples: period k if the last two k-cycle differences are
+    /// below 1 % of the ranges. (The loaded actuator drifts slowly within the
+    /// settling tolerance, so a much tighter threshold would call a periodic
+    /// orbit non-periodic.)
+    std::string classify(const std::vector<std::vector<double>> &sections,
+                         const std::vector<double>              &scale)
+    {
+      const std::size_t n = sections.size();
+      const auto distance = [&](std::size_t a, std::size_t b) {
+        double d = 0;
+        for (std::size_t i = 0; i < scale.size(); ++i)
+          if (scale[i] > 0)
+            d = std::max(d, std::abs(sections[a][i] - sections[b][i]) / scale[i]);
+        return d;
+      };
+      for (std::size_t k = 1; k <= 4; ++k)
+        if (n > 2 * k && distance(n - 1, n - 1 - k) < 1e-2 && distance(n - 1 - k, n - 1 - 2 * k) < 1e-2)
+          return k == 1 ? "periodic" : "period-" + std::to_string(k);
+      return "non-periodic";
+    }
+
+    /// Standard error of the mean of `values` from the means of 10 batches.
+    double batch_standard_error(const std::vector<double> &values)
+    {
+      const std::size_t n_batches = std::min<std::size_t>(10, values.size());
+      if (n_batches < 2)
+        return 0.0;
+      const std::size_t size = values.size() / n_batches;
+      std::vector<double> means(n_batches, 0.0);
+      for (std::size_t b = 0; b < n_batches; ++b)
+        for (std::size_t i = 0; i < size; ++i)
+          means[b] += values[b * size + i] / static_cast<double>(size);
+      double mean = 0, var = 0;
+      for (double m : means)
+        mean += m / static_cast<double>(n_batches);
+      for (double m : means)
+        var += (m - mean) * (m - mean) / static_cast<double>(n_batches - 1);
+      return std::sqrt(var / static_cast<double>(n_batches));
+    }
   } // namespace
 
   RunResult run(Model &model, const RunOptions &options)
@@ -156,6 +208,10 @@ namespace rectify::system
     double              x_p_min = 1e300, x_p_max = -1e300;
     double              min_reed = 0.0, max_ro = 0.0, max_ri = 0.0, min_p_ch = 1e300;
     std::vector<double> row(series_columns.size());
+    std::vector<double> window_means;
+    std::vector<std::vector<double>> sections;
+    std::vector<double> section_min(section_states.size(), 1e300),
+      section_max(section_states.size(), -1e300);
 
     while (true)
       {
@@ -177,6 +233,11 @@ namespace rectify::system
                 max_ro   = std::max(max_ro, y[outlet_reed_x]);
                 max_ri   = std::max(max_ri, y[inlet_reed_x]);
                 min_p_ch = std::min(min_p_ch, y[chamber_p]);
+                for (std::size_t i = 0; i < section_states.size(); ++i)
+                  {
+                    section_min[i] = std::min(section_min[i], y[section_states[i]]);
+                    section_max[i] = std::max(section_max[i], y[section_states[i]]);
+                  }
               }
             if (std::max(y[outlet_reed_x], y[inlet_reed_x]) > map_max)
               ++result.n_samples_beyond_map;
@@ -223,6 +284,11 @@ namespace rectify::system
               }
             continue;
           }
+        window_means.push_back(cycle_mean);
+        std::vector<double> section;
+        for (std::size_t i : section_states)
+          section.push_back(y[i]);
+        sections.push_back(std::move(section));
         if (cycle - result.n_startup_cycles >= options.n_cycles)
           break;
       }
@@ -236,6 +302,18 @@ namespace rectify::system
     result.stored_pressure_Pa    = d(outlet_pressure_integral) / T; // eq. 5.1
     result.mean_velocity_m_per_s = d(actuator_x) / T;               // eq. 5.2
     result.piston_stroke_m       = x_p_max - x_p_min;
+    result.metric_stderr         = batch_standard_error(window_means);
+    // Scale each state by the largest range among states of its kind
+    // (positions, velocities, pressures), so that a state that barely moves
+    // (the low side in a no-flow run) does not magnify its slow drift.
+    constexpr std::array<int, 12> kind{0, 1, 0, 1, 1, 0, 1, 0, 1, 2, 2, 2};
+    std::array<double, 3>         kind_range{0, 0, 0};
+    for (std::size_t i = 0; i < kind.size(); ++i)
+      kind_range[kind[i]] = std::max(kind_range[kind[i]], section_max[i] - section_min[i]);
+    std::vector<double> ranges(section_states.size());
+    for (std::size_t i = 0; i < ranges.size(); ++i)
+      ranges[i] = kind_range[kind[i]];
+    result.regime = classify(sections, ranges);
     result.pumped_volume_m3      = d(outlet_volume);
     result.max_outlet_reed_opening_m = max_ro;
     result.max_inlet_reed_opening_m  = max_ri;

@@ -17,7 +17,7 @@ namespace rectify::system
     /// measure `n_cycles` more. Off: the metrics are means over the whole run,
     /// as eqs. 5.1 and 5.2 define them.
     bool        settle             = false;
-    std::size_t max_startup_cycles = 3000;
+    std::size_t max_startup_cycles = 1000;
     double      settle_tolerance   = 2e-3; ///< relative, see docs/system-model.md
     bool        record             = false; ///< keep a time series
     std::size_t samples_per_cycle  = 200;
@@ -35,6 +35,13 @@ namespace rectify::system
     double      start_time_s = 0, end_time_s = 0; ///< the measured window
     std::size_t n_startup_cycles = 0, n_measured_cycles = 0;
     bool        settled = true;
+    /// Standard error of the metric's mean over the window, from the means of
+    /// ten batches of cycles: about 0 for a periodic response, the sampling
+    /// uncertainty of the mean for a non-periodic one (valve flutter).
+    double      metric_stderr = 0;
+    /// "periodic" (period 1), "period-k" (k = 2..4 cycles) or "non-periodic",
+    /// from the states at the ends of the last cycles.
+    std::string regime = "periodic";
     double      wall_time_s = 0;
     IntegratorStats stats;
     // checks and diagnostics

@@ -52,9 +52,10 @@ namespace rectify::system
     std::string point_line(const SweepPoint &p)
     {
       char buf[512];
-      std::snprintf(buf, sizeof(buf), "%s,%.17g,%.17g,%.17g,%d,%zu,%zu,%.6g,%.6g,%ld,%ld,%ld,%ld,%zu\n",
+      std::snprintf(buf, sizeof(buf), "%s,%.17g,%.17g,%.17g,%d,%.17g,%s,%zu,%zu,%.6g,%.6g,%ld,%ld,%ld,%ld,%zu\n",
                     p.series.c_str(), p.frequency_Hz, p.stored_pressure_Pa,
-                    p.mean_velocity_m_per_s, p.settled ? 1 : 0, p.startup_cycles,
+                    p.mean_velocity_m_per_s, p.settled ? 1 : 0, p.metric_stderr,
+                    p.regime.c_str(), p.startup_cycles,
                     p.measured_cycles, p.wall_time_s, p.volume_balance_rel_error, p.steps,
                     p.rhs_evaluations, p.jacobian_evaluations, p.events, p.warnings);
       return buf;
@@ -67,7 +68,7 @@ namespace rectify::system
       std::string              c;
       while (std::getline(in, c, ','))
         cell.push_back(c);
-      if (cell.size() != 14)
+      if (cell.size() != 16)
         return false;
       try
         {
@@ -78,15 +79,17 @@ namespace rectify::system
           p.mean_velocity_m_per_s = std::stod(cell[3]);
           settled                 = std::stoi(cell[4]);
           p.settled               = settled != 0;
-          p.startup_cycles        = std::stoul(cell[5]);
-          p.measured_cycles       = std::stoul(cell[6]);
-          p.wall_time_s           = std::stod(cell[7]);
-          p.volume_balance_rel_error = std::stod(cell[8]);
-          p.steps                 = std::stol(cell[9]);
-          p.rhs_evaluations       = std::stol(cell[10]);
-          p.jacobian_evaluations  = std::stol(cell[11]);
-          p.events                = std::stol(cell[12]);
-          p.warnings              = std::stoul(cell[13]);
+          p.metric_stderr         = std::stod(cell[5]);
+          p.regime                = cell[6];
+          p.startup_cycles        = std::stoul(cell[7]);
+          p.measured_cycles       = std::stoul(cell[8]);
+          p.wall_time_s           = std::stod(cell[9]);
+          p.volume_balance_rel_error = std::stod(cell[10]);
+          p.steps                 = std::stol(cell[11]);
+          p.rhs_evaluations       = std::stol(cell[12]);
+          p.jacobian_evaluations  = std::stol(cell[13]);
+          p.events                = std::stol(cell[14]);
+          p.warnings              = std::stoul(cell[15]);
         }
       catch (const std::exception &)
         {
@@ -212,6 +215,8 @@ namespace rectify::system
                             r.stored_pressure_Pa,
                             r.mean_velocity_m_per_s,
                             r.settled,
+                            r.metric_stderr,
+                            r.regime,
                             r.n_startup_cycles,
                             r.n_measured_cycles,
                             r.wall_time_s,

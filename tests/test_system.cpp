@@ -1,0 +1,488 @@
+// The lumped EHA model (system/): exact solutions, conservation, solver
+// convergence, the analytic Jacobian, seat contact, and the tool's handling
+// of bad input and interrupted sweeps.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <random>
+#include <sstream>
+
+#include "common/case_file.h"
+#include "common/io.h"
+#include "system/integrator.h"
+#include "system/model.h"
+#include "system/reed.h"
+#include "system/simulation.h"
+
+using namespace rectify;
+using namespace rectify::system;
+
+namespace
+{
+  SystemParameters reference() { return SystemParameters::from_case(CaseFile::load(reference_case_path())); }
+
+  maps::ResistanceMap reference_map(const SystemParameters &p)
+  {
+    return maps::ResistanceMap::read(p.valves.resistance_map,
+                                     maps::parse_interpolation(p.valves.interpolation));
+  }
+
+  Model make_model(const SystemParameters &p, ValveModel v, Scenario s, double f,
+                   double pp = -1, double bias = -1)
+  {
+    return Model(p, reference_map(p), v, s,
+                 Drive::sine(f, pp < 0 ? p.drive.current_pp_A : pp, bias < 0 ? p.drive.current_bias_A : bias));
+  }
+
+  RunOptions options(const SystemParameters &p, std::size_t cycles)
+  {
+    RunOptions o;
+    o.n_cycles           = cycles;
+    o.relative_tolerance = p.solver.relative_tolerance;
+    return o;
+  }
+
+  /// One reed (eq. 3.9) under a prescribed pressure difference dp(t), on the
+  /// same reed functions and integrator as the model.
+  class ReedRig : public OdeSystem
+  {
+  public:
+    ReedRig(ReedConstants c, std::function<double(double)> dp)
+      : c_(c)
+      , dp_(std::move(dp))
+    {}
+    std::size_t n_states() const override { return 2; }
+    void        rhs(double t, std::span<const double> y, std::span<double> ydot) const override
+    {
+      ydot[0] = seated ? 0.0 : y[1];
+      ydot[1] = seated ? 0.0 : reed_acceleration(c_, y[0], y[1], dp_(t) * c_.area);
+    }
+    void jacobian(double, std::span<const double>, DenseView J) const override
+    {
+      if (seated)
+        return;
+      J(0, 1) = 1.0;
+      J(1, 0) = -c_.stiffness / c_.mass;
+      J(1, 1) = -c_.damping / c_.mass;
+    }
+    std::size_t n_roots() const override { return 1; }
+    void        roots(double t, std::span<const double> y, std::span<double> g) const override
+    {
+      g[0] = reed_root(seated, y[0], dp_(t) * c_.area);
+    }
+    bool handle_events(double t, std::span<double> y, std::span<const int>) override
+    {
+      seated = reed_on_root(c_, seated, dp_(t) * c_.area, y[0], y[1]);
+      return true;
+    }
+    bool seated = true;
+
+  private:
+    ReedConstants                 c_;
+    std::function<double(double)> dp_;
+  };
+
+  IntegratorOptions rig_options()
+  {
+    IntegratorOptions o;
+    o.relative_tolerance  = 1e-9;
+    o.absolute_tolerances = {1e-15, 1e-12};
+    return o;
+  }
+} // namespace
+
+TEST(Reed, RestsOnItsSeatWhileHeldClosedThenLiftsAndRingsAtItsDampedFrequency)
+{
+  const auto    p = reference();
+  const ModelConstants c(p, Scenario::no_flow);
+  const double  dp_open = 20e3, t_step = 2e-3;
+  ReedRig       rig(c.reed, [&](double t) { return t < t_step ? -2e3 : dp_open; });
+  const double  y0[2] = {0.0, 0.0};
+  Integrator    integ(rig, 0.0, y0, rig_options());
+
+  // Held closed: the reed stays exactly on its seat.
+  for (double t = 1e-4; t < t_step; t += 1e-4)
+    {
+      integ.advance_to(t);
+      EXPECT_EQ(integ.state()[0], 0.0);
+      EXPECT_TRUE(rig.seated);
+    }
+  // Opened: it lifts, rings and settles at dp A_r / k_r.
+  const double x_static = dp_open * c.reed.area / c.reed.stiffness;
+  std::vector<double> up_crossings;
+  double              previous = -x_static, t_prev = t_step;
+  for (double t = t_step + 2e-6; t < t_step + 0.04; t += 2e-6)
+    {
+      integ.advance_to(t);
+      const double e = integ.state()[0] - x_static;
+      EXPECT_GE(integ.state()[0], 0.0);
+      if (previous < 0 && e >= 0)
+        up_crossings.push_back(t_prev + (t - t_prev) * (-previous) / (e - previous));
+      previous = e;
+      t_prev   = t;
+    }
+  EXPECT_FALSE(rig.seated);
+  EXPECT_NEAR(integ.state()[0], x_static, 1e-4 * x_static);
+
+  const double omega_n = std::sqrt(c.reed.stiffness / c.reed.mass);
+  const double zeta    = c.reed.damping / (2 * std::sqrt(c.reed.stiffness * c.reed.mass));
+  const double f_d     = omega_n * std::sqrt(1 - zeta * zeta) / (2 * std::numbers::pi);
+  ASSERT_GE(up_crossings.size(), 6u);
+  const double period = (up_crossings[5] - up_crossings[0]) / 5.0;
+  EXPECT_NEAR(1.0 / period, f_d, 1e-3 * f_d);
+  EXPECT_NEAR(f_d, 674.5, 1.0); // about 680 Hz undamped with the thesis's values
+  EXPECT_NEAR(omega_n / (2 * std::numbers::pi), 680.0, 1.0);
+}
+
+TEST(Reed, ReleasedReedFallsBackOntoItsSeatAndStays)
+{
+  const auto    p = reference();
+  ModelConstants c(p, Scenario::no_flow);
+  c.reed.restitution = 0.5;
+  ReedRig      rig(c.reed, [](double) { return -5e3; });
+  rig.seated         = false;
+  const double y0[2] = {50e-6, 0.0};
+  Integrator   integ(rig, 0.0, y0, rig_options());
+  double       lowest = 1.0;
+  for (double t = 1e-5; t < 0.05; t += 1e-5)
+    {
+      integ.advance_to(t);
+      lowest = std::min(lowest, integ.state()[0]);
+    }
+  EXPECT_TRUE(rig.seated);
+  EXPECT_EQ(integ.state()[0], 0.0);
+  EXPECT_GE(lowest, 0.0);
+  EXPECT_GE(integ.stats().events, 3); // bounced (restitution 0.5) before it came to rest
+}
+
+TEST(Model, AnalyticJacobianMatchesFiniteDifferences)
+{
+  const auto   p = reference();
+  std::mt19937 rng(42);
+  for (auto valves : {ValveModel::dynamic, ValveModel::ideal})
+    for (int trial = 0; trial < 8; ++trial)
+      {
+        Model model = make_model(p, valves, trial % 2 ? Scenario::loaded : Scenario::no_flow, 100);
+        model.set_closed(0, trial % 4 == 0);
+        model.set_closed(1, trial % 3 == 0);
+        const auto               typical = model.typical_sizes();
+        std::uniform_real_distribution<double> u(-1.0, 1.0);
+        std::vector<double>      y(model.n_states());
+        for (std::size_t i = 0; i < y.size(); ++i)
+          y[i] = typical[i] * u(rng);
+        // reed openings inside the map's steep part, never on a node
+        y[state::outlet_reed_x] = (1 + 200 * std::abs(u(rng))) * 1.013e-6;
+        y[state::inlet_reed_x]  = (1 + 200 * std::abs(u(rng))) * 1.017e-6;
+        const std::size_t   n = model.n_states();
+        std::vector<double> J(n * n, 0.0);
+        model.jacobian(0.01, y, DenseView{J.data(), n});
+        std::vector<double> fp(n), fm(n);
+        for (std::size_t j = 0; j < n; ++j)
+          {
+            // The rhs is linear in every state but the reed openings, whose
+            // R(x) varies on a 40 um scale: h = 1e-4 of a typical size keeps
+            // both the truncation and the round-off error far below 1e-5.
+            const double h  = 1e-4 * typical[j];
+            auto         yp = y, ym = y;
+            yp[j] += h;
+            ym[j] -= h;
+            model.rhs(0.01, yp, fp);
+            model.rhs(0.01, ym, fm);
+            for (std::size_t i = 0; i < n; ++i)
+              {
+                const double fd    = (fp[i] - fm[i]) / (2 * h);
+                const double exact = J[j * n + i];
+                EXPECT_NEAR(exact, fd, 1e-5 * std::abs(fd) + 1e-10 * std::abs(fp[i]) / typical[j])
+                  << to_string(valves) << " trial " << trial << " d f[" << i << "]/d y[" << j << "]";
+              }
+          }
+      }
+}
+
+TEST(Model, ClosedChamberReachesTheStaticPressureAndHoldsIt)
+{
+  // A slow ramp of the current (0.5 Hz, 0 -> 10 A -> 0) in the no-flow case:
+  // at the peak the outlet pressure is the static solution of
+  //   k_eff x_p + p A_pi = N q k_td I,   p (C_ch + C_h) = A_pi x_p,
+  // and while the current falls the closed outlet valve holds it, losing only
+  // what leaks through its closed resistance R(0) = 1e17.
+  const auto p      = reference();
+  Model      model  = make_model(p, ValveModel::dynamic, Scenario::no_flow, 0.5, 10.0, 5.0);
+  auto       o      = options(p, 1);
+  o.record          = true;
+  o.samples_per_cycle = 400;
+  const RunResult r = run(model, o);
+  const auto     &c = model.constants();
+  const double    F = c.force_per_ampere * 10.0;
+  const double    x = F / (c.k_eff + c.A_pi * c.A_pi / (c.C_ch + c.C_h));
+  const double    p_static = c.A_pi * x / (c.C_ch + c.C_h);
+  const auto      p_h      = r.series->column("high_pressure_Pa");
+  const auto      p_ch     = r.series->column("chamber_pressure_Pa");
+  const auto      t        = r.series->column("time_s");
+  EXPECT_NEAR(p_h[199], p_static, 5e-3 * p_static); // t = 1 s, the current's peak
+  // Held: the drop after the peak is the leakage through R(0) + R3, integrated.
+  double leak = 0;
+  for (std::size_t k = 200; k < t.size(); ++k)
+    leak += 0.5 * (t[k] - t[k - 1]) *
+            ((p_h[k] - p_ch[k]) + (p_h[k - 1] - p_ch[k - 1])) / (1e17 + c.R3) / c.C_h;
+  const double drop = p_h[199] - p_h.back();
+  EXPECT_GT(drop, 0.0);
+  EXPECT_LT(drop, 0.01 * p_static);
+  EXPECT_NEAR(drop, leak, 0.05 * leak);
+  // The chamber refilled to the bias pressure.
+  EXPECT_NEAR(p_ch.back(), 0.0, 1e-3 * p_static);
+  EXPECT_LT(r.volume_balance_rel_error, 1e-8);
+}
+
+TEST(Model, ReedsNeverPassTheirSeatsAndTheOutletShutsDuringRefill)
+{
+  const auto p     = reference();
+  Model      model = make_model(p, ValveModel::dynamic, Scenario::no_flow, 10);
+  auto       o     = options(p, 3);
+  o.record         = true;
+  const RunResult r = run(model, o);
+  EXPECT_GE(r.min_reed_opening_m, 0.0);
+  const auto x_ro = r.series->column("outlet_reed_m");
+  const auto p_ch = r.series->column("chamber_pressure_Pa");
+  const auto p_o  = r.series->column("outlet_pressure_Pa");
+  std::size_t n_refill = 0;
+  for (std::size_t k = 0; k < x_ro.size(); ++k)
+    if (p_o[k] - p_ch[k] > 1e5) // pressure holds the outlet reed on its seat
+      {
+        ++n_refill;
+        EXPECT_EQ(x_ro[k], 0.0) << "sample " << k;
+      }
+  EXPECT_GT(n_refill, 100u);
+  EXPECT_GT(r.n_seat_impacts, 0u);
+  EXPECT_GT(r.max_outlet_reed_opening_m, 1e-6);
+}
+
+TEST(Model, VolumeBalanceClosesToSolverTolerance)
+{
+  const auto p = reference();
+  for (auto [scenario, f] : {std::pair{Scenario::no_flow, 25.0}, std::pair{Scenario::loaded, 400.0}})
+    for (auto valves : {ValveModel::dynamic, ValveModel::ideal})
+      {
+        Model           model = make_model(p, valves, scenario, f);
+        const RunResult r     = run(model, options(p, 10));
+        EXPECT_LT(r.volume_balance_rel_error, 1e-8) << to_string(scenario) << " " << to_string(valves);
+        EXPECT_GT(std::abs(r.pumped_volume_m3), 0.0);
+      }
+}
+
+TEST(Model, HalvingTolerancesMovesTheMetricsLessThanHalfAPercent)
+{
+  // Settled runs, as the sweeps make them, at operating points whose response
+  // is periodic (loaded: points of the 10-3500 Hz linear sweep grid). Where
+  // the loaded model flutters non-periodically or has coexisting orbits, the
+  // mean depends on the trajectory, not on the tolerance: see
+  // docs/chapter5-comparison.md.
+  const auto p = reference();
+  struct Case
+  {
+    Scenario scenario;
+    double   f;
+    double   pp, bias;
+  };
+  const double step = (3500.0 - 10.0) / 99.0;
+  for (const Case &k : {Case{Scenario::no_flow, 50, 4, 2}, Case{Scenario::no_flow, 400, 4, 2},
+                        Case{Scenario::loaded, 10 + 1 * step, 20, 10},
+                        Case{Scenario::loaded, 10 + 11 * step, 20, 10},
+                        Case{Scenario::loaded, 10 + 17 * step, 20, 10}})
+    {
+      double values[2];
+      for (int h = 0; h < 2; ++h)
+        {
+          Model model = make_model(p, ValveModel::dynamic, k.scenario, k.f, k.pp, k.bias);
+          auto  o     = options(p, 50);
+          o.settle    = true;
+          o.samples_per_cycle = 16;
+          o.relative_tolerance *= h == 0 ? 1.0 : 0.5;
+          const RunResult r = run(model, o);
+          EXPECT_NE(r.regime, "non-periodic") << k.f << " Hz";
+          values[h] = k.scenario == Scenario::no_flow ? r.stored_pressure_Pa : r.mean_velocity_m_per_s;
+        }
+      EXPECT_NEAR(values[1], values[0], 5e-3 * std::abs(values[0]))
+        << to_string(k.scenario) << " at " << k.f << " Hz";
+    }
+}
+
+TEST(Model, PeriodicResponseIsRecognisedAndHasNoSamplingError)
+{
+  const auto p     = reference();
+  Model      model = make_model(p, ValveModel::ideal, Scenario::no_flow, 50, 4, 2);
+  auto       o     = options(p, 50);
+  o.settle         = true;
+  const RunResult r = run(model, o);
+  EXPECT_TRUE(r.settled);
+  EXPECT_EQ(r.regime, "periodic");
+  EXPECT_LT(r.metric_stderr, 1e-4 * r.stored_pressure_Pa);
+}
+
+TEST(Model, FiniteDifferenceJacobianGivesTheSameResults)
+{
+  const auto p = reference();
+  double     values[2];
+  for (int fd = 0; fd < 2; ++fd)
+    {
+      Model model = make_model(p, ValveModel::dynamic, Scenario::no_flow, 25);
+      auto  o     = options(p, 5);
+      o.finite_difference_jacobian = fd == 1;
+      values[fd]                   = run(model, o).stored_pressure_Pa;
+    }
+  EXPECT_NEAR(values[1], values[0], 1e-3 * values[0]);
+}
+
+TEST(Model, IdealValvesWithoutLoadPumpTheSweptVolumeEachCycle)
+{
+  // eq. 3.39: with ideal valves and no load, the mean flow is A_pi * stroke * f,
+  // so the actuator's mean velocity rises linearly with frequency.
+  auto p         = reference();
+  p.load.mass_kg = 1e-3;
+  std::vector<double> v;
+  for (double f : {5.0, 10.0, 20.0})
+    {
+      Model      model = make_model(p, ValveModel::ideal, Scenario::loaded, f);
+      RunOptions o     = options(p, 10);
+      o.settle         = true;
+      const RunResult r = run(model, o);
+      const double    ideal = model.constants().A_pi * r.piston_stroke_m * f / model.constants().A_po;
+      EXPECT_NEAR(r.mean_velocity_m_per_s, ideal, 0.02 * ideal) << f << " Hz";
+      v.push_back(r.mean_velocity_m_per_s);
+    }
+  EXPECT_NEAR(v[1] / v[0], 2.0, 0.02);
+  EXPECT_NEAR(v[2] / v[1], 2.0, 0.02);
+}
+
+// ------------------------------------------------------------------ the tool
+namespace
+{
+  struct Command
+  {
+    int         exit_code;
+    std::string output;
+  };
+
+  Command rectify_cli(const std::string &args)
+  {
+    const auto  log = std::filesystem::temp_directory_path() / "rectify_cli.log";
+    const std::string cmd = std::string(RECTIFY_BINARY) + " " + args + " > " + log.string() + " 2>&1";
+    const int   status = std::system(cmd.c_str());
+    std::ifstream in(log);
+    std::stringstream s;
+    s << in.rdbuf();
+    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, s.str()};
+  }
+
+  std::filesystem::path scratch(const std::string &name)
+  {
+    const auto dir = std::filesystem::temp_directory_path() / ("rectify_cli_" + name);
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    return dir;
+  }
+
+  std::string reference_text()
+  {
+    std::ifstream     in(reference_case_path());
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+  }
+
+  std::string replace(std::string text, const std::string &from, const std::string &to)
+  {
+    const auto pos = text.find(from);
+    EXPECT_NE(pos, std::string::npos) << from;
+    return text.replace(pos, from.size(), to);
+  }
+} // namespace
+
+TEST(Cli, BadCaseValuesExitWithTheKeyAndWriteNothing)
+{
+  const auto dir = scratch("bad");
+  std::filesystem::copy(reference_case_path().parent_path() / "thesis-resistance.csv", dir);
+  write_file_atomic(dir / "neg.toml", replace(reference_text(), "effective_mass_kg = 0.3643e-3",
+                                              "effective_mass_kg = -0.3643e-3"));
+  auto r = rectify_cli("simulate --case " + (dir / "neg.toml").string() + " --out " + (dir / "out").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("[reed] effective_mass_kg"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("-0.0003643"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir / "out"));
+
+  write_file_atomic(dir / "typo.toml", replace(reference_text(), "[load]\n", "[load]\nmas_kg = 3\n"));
+  r = rectify_cli("sweep --case " + (dir / "typo.toml").string() + " --out " + (dir / "out").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("[load] mas_kg"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir / "out"));
+
+  r = rectify_cli("simulate --case " + (dir / "missing.toml").string() + " --out " + (dir / "out").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("missing.toml"), std::string::npos) << r.output;
+}
+
+TEST(Cli, NonMonotoneMapIsRejectedWithFileAndRow)
+{
+  const auto dir = scratch("map");
+  write_file_atomic(dir / "map.csv", "opening_m,R_Pa_s_per_m3\n0,1e17\n2e-6,2e11\n1e-6,1e11\n");
+  write_file_atomic(dir / "case.toml", replace(reference_text(), "\"thesis-resistance.csv\"", "\"map.csv\""));
+  const auto r = rectify_cli("simulate --case " + (dir / "case.toml").string() + " --out " + (dir / "out").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("map.csv"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("row 3"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir / "out" / "summary.json"));
+}
+
+TEST(Cli, SimulateWritesSummaryTableAndPlot)
+{
+  const auto dir = scratch("sim");
+  const auto r   = rectify_cli("simulate --scenario no-flow --frequency 25 --cycles 3 --out " + dir.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream in(dir / "summary.json");
+  const auto    s = nlohmann::json::parse(in);
+  for (const char *key : {"stored_pressure_Pa", "mean_velocity_m_per_s", "wall_time_s"})
+    EXPECT_TRUE(s.contains(key)) << key;
+  EXPECT_GT(s["stored_pressure_Pa"].get<double>(), 0.0);
+  const auto csv = read_csv(dir / "timeseries.csv");
+  EXPECT_EQ(csv.rows.size(), 3u * 200u);
+  for (const auto &e : std::filesystem::directory_iterator(dir))
+    EXPECT_EQ(e.path().string().find(".tmp."), std::string::npos) << e.path();
+}
+
+TEST(Cli, InterruptedSweepResumesWithoutRepeatingOrLosingRuns)
+{
+  const auto  dir  = scratch("sweep");
+  const std::string args = "sweep --scenario no-flow --from 100 --to 400 --n 3 --cycles 5 "
+                           "--series ideal --jobs 2 --quiet --out " + dir.string();
+  auto r = rectify_cli(args);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream in1(dir / "summary.json");
+  const auto    first = nlohmann::json::parse(in1);
+
+  // Simulate a kill during the third run: its line never made it, the last one is cut.
+  std::ifstream          partial(dir / "sweep-partial.csv");
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(partial, line);)
+    lines.push_back(line);
+  ASSERT_EQ(lines.size(), 3u);
+  write_file_atomic(dir / "sweep-partial.csv", lines[0] + "\n" + lines[1] + "\n" + lines[2].substr(0, 10));
+  std::filesystem::remove(dir / "summary.json");
+
+  r = rectify_cli(args);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream in2(dir / "summary.json");
+  const auto    second = nlohmann::json::parse(in2);
+  EXPECT_EQ(second["runs_resumed"], 2);
+  EXPECT_EQ(second["stored_pressure_Pa"], first["stored_pressure_Pa"]);
+
+  // Other settings into the same folder: refused, nothing mixed.
+  r = rectify_cli("sweep --scenario no-flow --from 100 --to 400 --n 3 --cycles 6 --series ideal --quiet --out " +
+                  dir.string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("other settings"), std::string::npos) << r.output;
+}

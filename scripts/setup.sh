@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Installs the Debian packages rectify needs (only those missing; safe to run
+# again) and builds everything into build/ (the tool is build/bin/rectify).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+packages=(
+  build-essential cmake ccache pkg-config
+  libsundials-dev        # CVODE: the stiff ODE integrator of the system model
+  libeigen3-dev          # small dense LU inside CVODE's Newton iteration
+  nlohmann-json3-dev     # summary.json and map metadata
+  libtoml11-dev          # case files
+  libcli11-dev           # the command line
+  libgtest-dev           # tests
+  gnuplot-nox            # plots (PNG and SVG)
+  libopenblas0-pthread   # fast BLAS for the sparse direct solves of the FE stages
+)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  echo "setup: installing ${missing[*]}"
+  sudo=""
+  [ "$(id -u)" -eq 0 ] || sudo="sudo"
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release
+cmake --build build -j"$(nproc)"
