@@ -6,6 +6,7 @@
 #include "app/commands.h"
 #include "common/io.h"
 #include "common/plot.h"
+#include "common/progress.h"
 #include "system/simulation.h"
 #include "system/sweep.h"
 
@@ -142,6 +143,13 @@ namespace rectify::app
       auto          run = o.run_options(p);
       run.n_cycles      = o.cycles;
       run.record        = true;
+      const std::size_t every = std::max<std::size_t>(1, o.cycles / 10);
+      Progress          progress("simulate", o.cycles / every);
+      if (o.cycles >= 20)
+        run.on_cycle = [&](std::size_t done, std::size_t) {
+          if (done % every == 0)
+            progress.step("cycle " + std::to_string(done));
+        };
       const system::RunResult r = system::run(model, run);
 
       const std::filesystem::path out(o.out_dir);

@@ -114,7 +114,7 @@ namespace rectify::system
   struct SolverParameters
   {
     double      relative_tolerance = 1e-5;
-    double      absolute_tolerance_factor = 1.0; ///< atol_i = factor * rtol * typical size of state i
+    double      absolute_tolerance_factor = 10.0; ///< atol_i = factor * rtol * typical size of state i
     std::string jacobian           = "analytic"; ///< or "finite-difference"
     double      samples_per_cycle  = 200;
     double      max_steps_per_cycle = 1e6;

@@ -266,6 +266,8 @@ namespace rectify::system
               }
           }
         ++cycle;
+        if (options.on_cycle)
+          options.on_cycle(cycle, measuring ? result.n_startup_cycles + options.n_cycles : 0);
         const auto   y          = integrator.state();
         const double cycle_mean = pressure_metric ?
                                     (y[outlet_pressure_integral] -

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <nlohmann/json.hpp>
+#include <functional>
 #include <optional>
 
 #include "common/io.h"
@@ -22,9 +23,12 @@ namespace rectify::system
     bool        record             = false; ///< keep a time series
     std::size_t samples_per_cycle  = 200;
     double      relative_tolerance = 1e-6;
-    double      absolute_tolerance_factor = 1.0;
+    double      absolute_tolerance_factor = 10.0;
     bool        finite_difference_jacobian = false;
     long        max_steps_per_cycle        = 1000000;
+    /// Called after every finished cycle with (cycles done, cycles planned;
+    /// 0 while settling). For progress displays.
+    std::function<void(std::size_t, std::size_t)> on_cycle;
   };
 
   struct RunResult

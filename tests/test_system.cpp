@@ -44,6 +44,7 @@ namespace
     RunOptions o;
     o.n_cycles           = cycles;
     o.relative_tolerance = p.solver.relative_tolerance;
+    o.absolute_tolerance_factor = p.solver.absolute_tolerance_factor;
     return o;
   }
 
@@ -357,6 +358,56 @@ TEST(Model, IdealValvesWithoutLoadPumpTheSweptVolumeEachCycle)
     }
   EXPECT_NEAR(v[1] / v[0], 2.0, 0.02);
   EXPECT_NEAR(v[2] / v[1], 2.0, 0.02);
+}
+
+TEST(Model, RecordedDriveWaveformReproducesTheSine)
+{
+  // The same current as a CSV table (2000 rows a cycle, linear interpolation)
+  // gives the same stored pressure as the analytic sine.
+  const auto  p   = reference();
+  const auto  dir = std::filesystem::temp_directory_path() / "rectify_test_drive";
+  std::filesystem::create_directories(dir);
+  const double f     = 25.0;
+  const Drive  sine  = Drive::sine(f, 20, 10);
+  std::string  table = "time_s,current_A\n";
+  for (int k = 0; k <= 4 * 2000; ++k)
+    {
+      const double t = k / (2000.0 * f);
+      table += format_number(t) + "," + format_number(sine.current_A(t)) + "\n";
+    }
+  write_file_atomic(dir / "drive.csv", table);
+  double values[2];
+  for (int csv = 0; csv < 2; ++csv)
+    {
+      Model model(p, reference_map(p), ValveModel::dynamic, Scenario::no_flow,
+                  csv ? Drive::from_csv(dir / "drive.csv", f) : sine);
+      values[csv] = run(model, options(p, 4)).stored_pressure_Pa;
+    }
+  EXPECT_NEAR(values[1], values[0], 1e-3 * values[0]);
+  // A run longer than the table is refused before it starts.
+  Model too_long(p, reference_map(p), ValveModel::dynamic, Scenario::no_flow,
+                 Drive::from_csv(dir / "drive.csv", f));
+  EXPECT_THROW(run(too_long, options(p, 5)), InputError);
+  write_file_atomic(dir / "bad.csv", "time_s,current_A\n0,0\n0.1,1\n0.1,2\n");
+  EXPECT_THROW(Drive::from_csv(dir / "bad.csv", f), InputError);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(Model, EntrainedAirSoftensTheOilAsEq326Says)
+{
+  // Thesis sec. 3.2.1: at a 1 ksi bias, 1 % of air cuts the bulk modulus by
+  // more than 60 % (with a typical mineral oil, 1.6 GPa, gamma = 1.4).
+  FluidParameters fluid;
+  fluid.bulk_modulus_Pa         = 1.6e9;
+  fluid.bias_pressure_Pa        = 6.894757e6;
+  fluid.gas_heat_capacity_ratio = 1.4;
+  fluid.entrained_air_fraction  = 0.0;
+  EXPECT_DOUBLE_EQ(fluid.effective_bulk_modulus_Pa(), 1.6e9);
+  fluid.entrained_air_fraction = 0.01;
+  const double beta            = fluid.effective_bulk_modulus_Pa();
+  EXPECT_NEAR(beta, 1.0 / (0.99 / 1.6e9 + 0.01 / (1.4 * 6.894757e6)), 1.0);
+  EXPECT_LT(beta, 0.4 * 1.6e9);
+  EXPECT_GT(beta, 0.3 * 1.6e9);
 }
 
 // ------------------------------------------------------------------ the tool

@@ -1,0 +1,43 @@
+# Figures of docs/chapter5-comparison.md, from the outputs of scripts/reference.sh.
+# Run from the repository root:  gnuplot docs/figures/chapter5.gp
+psi = 6894.757
+ref = 'runs/reference/'
+set datafile separator ','
+set grid
+set key top right
+set terminal pngcairo size 900,420 noenhanced font ',10'
+
+set output 'docs/figures/no-flow-traces.png'
+set title 'No-flow outlet pressure p_o, 20 A p-p / 10 A bias (cf. thesis Figs. 5.1, 5.2)'
+set xlabel 'pumping cycles (t f)'
+set ylabel 'p_o [psi above bias]'
+plot for [f in '5 10 25 50'] ref.'no-flow/trace-'.f.'Hz/timeseries.csv' every ::1 \
+     using ($1*f):($13/psi) with lines lw 1.5 title f.' Hz'
+
+set output 'docs/figures/stored-pressure.png'
+set title 'No-flow stored pressure (eq. 5.1), 4 A p-p / 2 A bias (cf. thesis Fig. 5.3)'
+set xlabel 'pumping frequency [Hz]'
+set ylabel 'stored pressure [psi above bias]'
+set logscale x
+set yrange [-50:300]
+$thesis << EOD
+1,200
+20,200
+30,50
+1200,50
+EOD
+plot ref.'no-flow/stored-pressure/sweep.csv' every ::1 using 1:($2/psi) with linespoints pt 7 ps 0.6 title 'rectify, dynamic valves', \
+     '' every ::1 using 1:($3/psi) with linespoints pt 6 ps 0.6 title 'rectify, ideal valves', \
+     $thesis using 1:2 with lines dt 2 lw 2 lc rgb 'black' title 'thesis data as its text describes it (approximate)'
+unset logscale x
+set yrange [*:*]
+
+set output 'docs/figures/velocity.png'
+set title 'Mean actuator velocity (eq. 5.2), 50 lb, 20 A p-p / 10 A bias (cf. thesis Figs. 5.4, 5.6)'
+set xlabel 'pumping frequency [Hz]'
+set ylabel 'mean velocity [m/s]'
+set key top left
+plot ref.'loaded/velocity/sweep.csv' every ::1 using 1:2 with linespoints pt 7 ps 0.5 title 'dynamic valves', \
+     '' every ::1 using 1:3 with linespoints pt 6 ps 0.5 title 'ideal valves', \
+     '' every ::1 using 1:4 with linespoints pt 4 ps 0.5 title 'reed what-if: 3 k_r, 0.5 m_r', \
+     0 with lines lc rgb 'black' notitle
