@@ -278,21 +278,9 @@ namespace rectify::app
 
       // Long table: every run with its diagnostics.
       const bool  pressure = scenario == system::Scenario::no_flow;
-      std::string long_csv =
-        "series,frequency_Hz,stored_pressure_Pa,mean_velocity_m_per_s,settled,metric_stderr,regime,"
-        "startup_cycles,measured_cycles,wall_time_s,volume_balance_rel_error,cvode_steps,"
-        "rhs_evaluations,jacobian_evaluations,events\n";
+      std::string long_csv = system::sweep_point_csv_header();
       for (const auto &pt : r.points)
-        {
-          char buf[400];
-          std::snprintf(buf, sizeof(buf), "%s,%.10g,%.10g,%.10g,%d,%.4g,%s,%zu,%zu,%.4g,%.3g,%ld,%ld,%ld,%ld\n",
-                        pt.series.c_str(), pt.frequency_Hz, pt.stored_pressure_Pa,
-                        pt.mean_velocity_m_per_s, pt.settled ? 1 : 0, pt.metric_stderr,
-                        pt.regime.c_str(), pt.startup_cycles,
-                        pt.measured_cycles, pt.wall_time_s, pt.volume_balance_rel_error, pt.steps,
-                        pt.rhs_evaluations, pt.jacobian_evaluations, pt.events);
-          long_csv += buf;
-        }
+        long_csv += system::to_csv_row(pt);
       write_file_atomic(out / "sweep-runs.csv", long_csv);
 
       // Wide table for plotting: one column per series.

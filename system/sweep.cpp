@@ -44,22 +44,29 @@ namespace rectify::system
     return f;
   }
 
+  std::string sweep_point_csv_header()
+  {
+    return "series,frequency_Hz,stored_pressure_Pa,mean_velocity_m_per_s,settled,metric_stderr,"
+           "regime,startup_cycles,measured_cycles,wall_time_s,volume_balance_rel_error,"
+           "cvode_steps,rhs_evaluations,jacobian_evaluations,events,warnings\n";
+  }
+
+  std::string to_csv_row(const SweepPoint &p)
+  {
+    char buf[512];
+    std::snprintf(buf, sizeof(buf),
+                  "%s,%.17g,%.17g,%.17g,%d,%.17g,%s,%zu,%zu,%.6g,%.6g,%ld,%ld,%ld,%ld,%zu\n",
+                  p.series.c_str(), p.frequency_Hz, p.stored_pressure_Pa, p.mean_velocity_m_per_s,
+                  p.settled ? 1 : 0, p.metric_stderr, p.regime.c_str(), p.startup_cycles,
+                  p.measured_cycles, p.wall_time_s, p.volume_balance_rel_error, p.steps,
+                  p.rhs_evaluations, p.jacobian_evaluations, p.events, p.warnings);
+    return buf;
+  }
+
   namespace
   {
     const char *partial_name     = "sweep-partial.csv";
     const char *fingerprint_name = "sweep-partial.json";
-
-    std::string point_line(const SweepPoint &p)
-    {
-      char buf[512];
-      std::snprintf(buf, sizeof(buf), "%s,%.17g,%.17g,%.17g,%d,%.17g,%s,%zu,%zu,%.6g,%.6g,%ld,%ld,%ld,%ld,%zu\n",
-                    p.series.c_str(), p.frequency_Hz, p.stored_pressure_Pa,
-                    p.mean_velocity_m_per_s, p.settled ? 1 : 0, p.metric_stderr,
-                    p.regime.c_str(), p.startup_cycles,
-                    p.measured_cycles, p.wall_time_s, p.volume_balance_rel_error, p.steps,
-                    p.rhs_evaluations, p.jacobian_evaluations, p.events, p.warnings);
-      return buf;
-    }
 
     bool parse_point(const std::string &line, SweepPoint &p)
     {
@@ -184,9 +191,16 @@ namespace rectify::system
     const std::size_t n_total = options.series.size() * options.frequencies_Hz.size();
     Progress          progress("sweep", n_total, done.size(), options.quiet);
 
-    std::FILE *log = std::fopen(partial.c_str(), "a");
+    const bool fresh = !std::filesystem::exists(partial);
+    std::FILE *log   = std::fopen(partial.c_str(), "a");
     if (!log)
       throw std::runtime_error("cannot append to '" + partial.string() + "'");
+    if (fresh)
+      {
+        const std::string header = sweep_point_csv_header();
+        std::fwrite(header.data(), 1, header.size(), log);
+        std::fflush(log);
+      }
     std::mutex               mutex;
     std::atomic<std::size_t> next{0};
     std::exception_ptr       failure;
@@ -234,7 +248,7 @@ namespace rectify::system
                             r.warnings.size()};
               {
                 std::lock_guard<std::mutex> lock(mutex);
-                const std::string           line = point_line(pt);
+                const std::string           line = to_csv_row(pt);
                 std::fwrite(line.data(), 1, line.size(), log);
                 std::fflush(log);
                 done[key(pt.series, pt.frequency_Hz)] = pt;

@@ -51,6 +51,12 @@ namespace rectify::system
     std::size_t warnings;
   };
 
+  /// The CSV header and one row of a SweepPoint: the checkpoint file
+  /// (sweep-partial.csv) and the sweep's table of runs (sweep-runs.csv) share
+  /// them. Numbers are written to round-trip exactly.
+  std::string sweep_point_csv_header();
+  std::string to_csv_row(const SweepPoint &point);
+
   struct SweepResult
   {
     std::vector<SweepPoint> points; ///< ordered by series, then frequency

@@ -520,8 +520,9 @@ TEST(Cli, InterruptedSweepResumesWithoutRepeatingOrLosingRuns)
   std::vector<std::string> lines;
   for (std::string line; std::getline(partial, line);)
     lines.push_back(line);
-  ASSERT_EQ(lines.size(), 3u);
-  write_file_atomic(dir / "sweep-partial.csv", lines[0] + "\n" + lines[1] + "\n" + lines[2].substr(0, 10));
+  ASSERT_EQ(lines.size(), 4u); // header and three runs
+  write_file_atomic(dir / "sweep-partial.csv",
+                    lines[0] + "\n" + lines[1] + "\n" + lines[2] + "\n" + lines[3].substr(0, 10));
   std::filesystem::remove(dir / "summary.json");
 
   r = rectify_cli(args);
