@@ -95,10 +95,8 @@ namespace rectify::maps
   {
     if (x <= 0.0)
       return {resistance_.front(), 0.0, false};
-    if (x >= opening_.back())
+    if (x >= opening_.back()) // held beyond the table: dR/dx may jump here
       return {resistance_.back(), 0.0, x > opening_.back()};
-    // (the slope of the last segment at its end is not 0 in general: beyond the
-    // table R is held, so dR/dx jumps there; the hold policy says so.)
     const auto   it = std::upper_bound(opening_.begin(), opening_.end(), x);
     const auto   i  = static_cast<std::size_t>(it - opening_.begin()) - 1;
     const double dx = opening_[i + 1] - opening_[i];

@@ -290,11 +290,9 @@ namespace rectify::system
     put(outlet_pressure_integral, p_o, 1.0);
   }
 
-  double Model::driving_pressure(std::size_t v, std::span<const double> y) const
+  double Model::driving_pressure(std::size_t v, std::span<const double> y, const Flows &f)
   {
-    const Flows f = flows(y);
-    return v == 0 ? y[state::chamber_p] - y[state::high_p]
-                  : f.p_junction - y[state::chamber_p];
+    return v == 0 ? y[state::chamber_p] - y[state::high_p] : f.p_junction - y[state::chamber_p];
   }
 
   namespace
@@ -312,7 +310,7 @@ namespace rectify::system
         const std::size_t ix = v == 0 ? state::outlet_reed_x : state::inlet_reed_x;
         if (valves_ == ValveModel::ideal)
           {
-            const double dp = driving_pressure(v, y);
+            const double dp = driving_pressure(v, y, f);
             // opens when dp rises past +switch_pressure, shuts when it falls past -switch_pressure
             g[v] = closed_[v] ? switch_pressure - dp : dp + switch_pressure;
           }

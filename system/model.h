@@ -148,7 +148,8 @@ namespace rectify::system
   private:
     /// R and dR/dx of valve v at state y.
     maps::ResistanceMap::Value valve_resistance(std::size_t v, std::span<const double> y) const;
-    double                     driving_pressure(std::size_t v, std::span<const double> y) const;
+    /// Pressure difference that drives flow forward through valve v.
+    static double driving_pressure(std::size_t v, std::span<const double> y, const Flows &f);
 
     ModelConstants        c_;
     maps::ResistanceMap   map_;

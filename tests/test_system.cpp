@@ -11,6 +11,7 @@
 #include <numbers>
 #include <random>
 #include <sstream>
+#include <unistd.h>
 
 #include "common/case_file.h"
 #include "common/io.h"
@@ -159,6 +160,22 @@ TEST(Reed, ReleasedReedFallsBackOntoItsSeatAndStays)
   EXPECT_EQ(integ.state()[0], 0.0);
   EXPECT_GE(lowest, 0.0);
   EXPECT_GE(integ.stats().events, 3); // bounced (restitution 0.5) before it came to rest
+}
+
+TEST(Model, DerivedConstantsReproduceTableA1)
+{
+  // Table A.1 lists derived values beside the inputs they come from.
+  const ModelConstants c(reference(), Scenario::loaded);
+  EXPECT_NEAR(c.k_td, 38.8e6, 0.005 * 38.8e6);        // eq. 3.2
+  EXPECT_NEAR(c.k_f, 233e6, 0.005 * 233e6);           // eq. 3.4
+  EXPECT_NEAR(c.m_f, 0.561e-3, 0.002 * 0.561e-3);     // eq. 3.3
+  EXPECT_NEAR(c.reed.damping, 0.4, 0.002);            // sec. 3.1.3: b_r = 0.4 N s/m
+  EXPECT_NEAR(std::sqrt(c.reed.stiffness / c.reed.mass) / (2 * std::numbers::pi), 680.0, 1.0);
+  EXPECT_NEAR(c.m_l, 50 * 0.45359237, 1e-4);          // sec. 5.2: 50 lb
+  EXPECT_EQ(ModelConstants(reference(), Scenario::no_flow).m_l, 1e12); // sec. 5.1
+  // eq. 3.28 for the chosen lines, and eq. 3.29 for the chamber
+  EXPECT_NEAR(c.R3, 128 * 0.0386 * 0.3048 / (std::numbers::pi * std::pow(4.572e-3, 4)), 1e3);
+  EXPECT_NEAR(c.C_ch, c.A_pi * 1.27e-3 / c.beta_eff, 1e-25);
 }
 
 TEST(Model, AnalyticJacobianMatchesFiniteDifferences)
@@ -421,7 +438,8 @@ namespace
 
   Command rectify_cli(const std::string &args)
   {
-    const auto  log = std::filesystem::temp_directory_path() / "rectify_cli.log";
+    const auto  log = std::filesystem::temp_directory_path() /
+                     ("rectify_cli_" + std::to_string(::getpid()) + ".log"); // ctest runs tests in parallel
     const std::string cmd = std::string(RECTIFY_BINARY) + " " + args + " > " + log.string() + " 2>&1";
     const int   status = std::system(cmd.c_str());
     std::ifstream in(log);
