@@ -12,14 +12,6 @@
 
 namespace rectify::app
 {
-  CaseFile load_case(const std::filesystem::path &path)
-  {
-    CaseFile file = CaseFile::load(path);
-    (void)system::SystemParameters::from_case(file);
-    file.check_all_keys_known();
-    return file;
-  }
-
   namespace
   {
     constexpr double psi = 6894.757;

@@ -15,6 +15,9 @@ namespace rectify::app
   /// `simulate` and `sweep` (system/).
   void register_system_commands(CLI::App &app);
 
+  /// `stiffness`, `map-stiffness` (stiffness_solver/).
+  void register_stiffness_commands(CLI::App &app);
+
   /// `map-thesis` (maps/).
   void register_map_commands(CLI::App &app);
 } // namespace rectify::app

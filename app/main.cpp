@@ -22,6 +22,7 @@ int main(int argc, char **argv)
   app.set_version_flag("--version", std::string(RECTIFY_VERSION));
   rectify::app::register_system_commands(app);
   rectify::app::register_map_commands(app);
+  rectify::app::register_stiffness_commands(app);
   try
     {
       app.parse(argc, argv);

@@ -149,6 +149,60 @@ namespace rectify
     return value;
   }
 
+  std::vector<double> CaseFile::reals(const std::string &table, const std::string &key,
+                                      const std::vector<double> &default_value,
+                                      const Bounds              &bounds) const
+  {
+    declare(table, key);
+    const toml::value  *v      = find(impl_->root, table, key);
+    std::vector<double> values = default_value;
+    if (v != nullptr)
+      {
+        if (!v->is_array())
+          throw InputError(where(table, key) + line_of(*v) + ": expected an array of numbers, got " +
+                           toml::format(*v));
+        values.clear();
+        for (const auto &e : v->as_array())
+          {
+            if (e.is_floating())
+              values.push_back(e.as_floating());
+            else if (e.is_integer())
+              values.push_back(static_cast<double>(e.as_integer()));
+            else
+              throw InputError(where(table, key) + line_of(*v) + ": expected numbers, got " +
+                               toml::format(e));
+          }
+        if (values.empty())
+          throw InputError(where(table, key) + line_of(*v) + ": the array is empty");
+      }
+    for (std::size_t i = 0; i < values.size(); ++i)
+      if (!bounds.contains(values[i]))
+        throw InputError(where(table, key) + (v ? line_of(*v) : " (default)") + ", entry " +
+                         std::to_string(i + 1) + " = " + format_number(values[i]) + ": must be " +
+                         bounds.describe());
+    return values;
+  }
+
+  long CaseFile::integer(const std::string &table, const std::string &key, long default_value,
+                         long min, long max) const
+  {
+    declare(table, key);
+    const toml::value *v     = find(impl_->root, table, key);
+    long               value = default_value;
+    if (v != nullptr)
+      {
+        if (!v->is_integer())
+          throw InputError(where(table, key) + line_of(*v) + ": expected a whole number, got " +
+                           toml::format(*v));
+        value = static_cast<long>(v->as_integer());
+      }
+    if (value < min || value > max)
+      throw InputError(where(table, key) + (v ? line_of(*v) : " (default)") + " = " +
+                       std::to_string(value) + ": must be in [" + std::to_string(min) + ", " +
+                       std::to_string(max) + "]");
+    return value;
+  }
+
   std::string CaseFile::text(const std::string &table, const std::string &key,
                              const std::string              &default_value,
                              const std::vector<std::string> &allowed) const

@@ -62,6 +62,12 @@ namespace rectify
     /// checked against `bounds`.
     double real(const std::string &table, const std::string &key, double default_value,
                 const Bounds &bounds) const;
+    /// A list of real parameters (a TOML array of numbers), each checked.
+    std::vector<double> reals(const std::string &table, const std::string &key,
+                              const std::vector<double> &default_value, const Bounds &bounds) const;
+    /// A whole-number parameter in [min, max].
+    long integer(const std::string &table, const std::string &key, long default_value, long min,
+                 long max) const;
     /// A string parameter; if `allowed` is not empty the value must be one of them.
     std::string text(const std::string &table, const std::string &key,
                      const std::string &default_value,

@@ -9,23 +9,10 @@
 #include <string>
 
 #include "common/case_file.h"
+#include "common/fluid.h"
 
 namespace rectify::system
 {
-  struct FluidParameters
-  {
-    double density_kg_per_m3       = 873.0;
-    double viscosity_Pa_s          = 0.0386;
-    double bulk_modulus_Pa         = 85.0 * 6.894757e6; ///< Table A.1 beta_eff, 85 ksi
-    double entrained_air_fraction  = 0.0;               ///< alpha in eq. 3.26
-    double gas_heat_capacity_ratio = 1.4;               ///< gamma in eq. 3.25
-    double bias_pressure_Pa        = 2.582e6;           ///< see reference.toml
-
-    /// eq. 3.26 with beta_gas = gamma p_bias (eq. 3.25).
-    double effective_bulk_modulus_Pa() const;
-    static FluidParameters from_case(const CaseFile &file);
-  };
-
   struct TransducerParameters
   {
     double rod_youngs_modulus_Pa             = 35e9;

@@ -87,7 +87,9 @@ TEST(ResistanceMap, MonotoneCubicHasAContinuousSlope)
         << "node " << i;
       const double ka = kinked.evaluate(below).slope, kb = kinked.evaluate(above).slope;
       if (r[i + 1] < r[i])
-        EXPECT_GT(std::abs(ka - kb), 0.05 * std::max(std::abs(ka), std::abs(kb))) << "node " << i;
+        {
+          EXPECT_GT(std::abs(ka - kb), 0.05 * std::max(std::abs(ka), std::abs(kb))) << "node " << i;
+        }
     }
 }
 

@@ -1,0 +1,24 @@
+// The working fluid (thesis Table A.1, Mobil DTE 25), shared by every stage:
+// density and viscosity for the flow and added-mass calculations, bulk
+// modulus and entrained air (eqs. 3.22-3.26) for the lumped model.
+#pragma once
+
+#include "common/case_file.h"
+
+namespace rectify
+{
+  struct FluidParameters
+  {
+    double density_kg_per_m3       = 873.0;
+    double viscosity_Pa_s          = 0.0386;
+    double bulk_modulus_Pa         = 85.0 * 6.894757e6; ///< Table A.1 beta_eff, 85 ksi
+    double entrained_air_fraction  = 0.0;               ///< alpha in eq. 3.26
+    double gas_heat_capacity_ratio = 1.4;               ///< gamma in eq. 3.25
+    double bias_pressure_Pa        = 2.582e6;           ///< see reference.toml
+
+    /// eq. 3.26 with beta_gas = gamma p_bias (eq. 3.25).
+    double effective_bulk_modulus_Pa() const;
+    static FluidParameters from_case(const CaseFile &file);
+  };
+
+} // namespace rectify

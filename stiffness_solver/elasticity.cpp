@@ -1,0 +1,429 @@
+// The reed as a 3D linear elastic plate on a hexahedral mesh, after deal.II's
+// step-8 (elasticity) and step-36 (eigenvalues, here with ARPACK in
+// shift-and-invert mode around 0 and UMFPACK for the inverse).
+//
+// Domain: [0, L] x [-W/2, W/2] x [0, t]; boundary ids from colorize:
+// 0 the clamp face x = 0 (u = 0), 1 the tip face x = L, 4 the underside z = 0.
+//
+// Weak form: find u with u = 0 on the clamp such that for all v
+//   (lambda div u, div v) + (2 mu eps(u), eps(v)) = (t_N, v)_Gamma,
+// and the modes solve K phi = omega^2 M phi with M = (rho u, v).
+#include "stiffness_solver/elasticity.h"
+
+#include <deal.II/base/quadrature_lib.h>
+#include <deal.II/base/symmetric_tensor.h>
+#include <deal.II/dofs/dof_handler.h>
+#include <deal.II/dofs/dof_tools.h>
+#include <deal.II/fe/fe_q.h>
+#include <deal.II/fe/fe_system.h>
+#include <deal.II/fe/fe_values.h>
+#include <deal.II/grid/grid_generator.h>
+#include <deal.II/grid/tria.h>
+#include <deal.II/lac/affine_constraints.h>
+#include <deal.II/lac/arpack_solver.h>
+#include <deal.II/lac/dynamic_sparsity_pattern.h>
+#include <deal.II/lac/solver_control.h>
+#include <deal.II/lac/sparse_direct.h>
+#include <deal.II/lac/sparse_matrix.h>
+#include <deal.II/lac/vector.h>
+#include <deal.II/numerics/data_out.h>
+#include <deal.II/numerics/vector_tools.h>
+
+#include <chrono>
+#include <cmath>
+#include <complex>
+#include <fstream>
+#include <numbers>
+
+#include "common/io.h"
+#include "stiffness_solver/analytic.h"
+
+namespace rectify::stiffness
+{
+  using namespace dealii;
+
+  namespace
+  {
+    constexpr unsigned int dim = 3;
+
+    class ReedElasticity
+    {
+    public:
+      ReedElasticity(const StiffnessParameters &parameters, const SolveOptions &options);
+      StiffnessResult run();
+
+    private:
+      void make_grid();
+      void setup_system();
+      void assemble_system();
+      void assemble_load();
+      void solve();
+      void compute_modes();
+      void sample_shape();
+      void output_results() const;
+
+      double tip_face_integral(const Vector<double> &u, bool antisymmetric) const;
+      double value_z(const Vector<double> &u, const Point<dim> &p) const;
+
+      const StiffnessParameters &p_;
+      const SolveOptions        &options_;
+      const double               L_, W_, t_;
+
+      Triangulation<dim>        triangulation_;
+      FESystem<dim>             fe_;
+      DoFHandler<dim>           dof_handler_;
+      AffineConstraints<double> constraints_;
+      SparsityPattern           sparsity_;
+      SparseMatrix<double>      stiffness_matrix_;
+      SparseMatrix<double>      mass_matrix_;
+      SparseDirectUMFPACK       stiffness_inverse_;
+      Vector<double>            load_;     // for a unit load level
+      Vector<double>            solution_; // displacement for a unit load level
+      std::vector<Vector<double>> mode_shapes_;
+      StiffnessResult           result_;
+    };
+
+    ReedElasticity::ReedElasticity(const StiffnessParameters &parameters, const SolveOptions &options)
+      : p_(parameters)
+      , options_(options)
+      , L_(parameters.geometry.reed_length_m)
+      , W_(parameters.geometry.reed_width_m)
+      , t_(parameters.geometry.reed_thickness_m)
+      , fe_(FE_Q<dim>(parameters.settings.fe_degree), dim)
+      , dof_handler_(triangulation_)
+    {}
+
+    void ReedElasticity::make_grid()
+    {
+      const auto &s = p_.settings;
+      GridGenerator::subdivided_hyper_rectangle(
+        triangulation_,
+        {s.cells_along_length, s.cells_across_width, s.cells_through_thickness},
+        Point<dim>(0, -W_ / 2, 0), Point<dim>(L_, W_ / 2, t_), /*colorize=*/true);
+    }
+
+    void ReedElasticity::setup_system()
+    {
+      dof_handler_.distribute_dofs(fe_);
+      constraints_.clear();
+      VectorTools::interpolate_boundary_values(dof_handler_, 0, Functions::ZeroFunction<dim>(dim),
+                                               constraints_);
+      constraints_.close();
+      DynamicSparsityPattern dsp(dof_handler_.n_dofs());
+      DoFTools::make_sparsity_pattern(dof_handler_, dsp, constraints_, false);
+      sparsity_.copy_from(dsp);
+      stiffness_matrix_.reinit(sparsity_);
+      mass_matrix_.reinit(sparsity_);
+      load_.reinit(dof_handler_.n_dofs());
+      solution_.reinit(dof_handler_.n_dofs());
+      result_.n_dofs  = dof_handler_.n_dofs();
+      result_.n_cells = triangulation_.n_active_cells();
+    }
+
+    void ReedElasticity::assemble_system()
+    {
+      const double E = p_.material.youngs_modulus_Pa, nu = p_.material.poisson_ratio;
+      const double lambda = E * nu / ((1 + nu) * (1 - 2 * nu));
+      const double mu     = E / (2 * (1 + nu));
+      const double rho    = p_.material.density_kg_per_m3;
+
+      const QGauss<dim> quadrature(fe_.degree + 1);
+      FEValues<dim>     fe_values(fe_, quadrature,
+                              update_values | update_gradients | update_JxW_values);
+      const unsigned int                   n = fe_.n_dofs_per_cell();
+      FullMatrix<double>                   cell_K(n, n), cell_M(n, n);
+      std::vector<types::global_dof_index> dofs(n);
+      const FEValuesExtractors::Vector     u(0);
+      std::vector<SymmetricTensor<2, dim>> eps(n);
+      std::vector<double>                  div(n);
+      std::vector<Tensor<1, dim>>          val(n);
+
+      for (const auto &cell : dof_handler_.active_cell_iterators())
+        {
+          fe_values.reinit(cell);
+          cell_K = 0;
+          cell_M = 0;
+          for (unsigned int q = 0; q < quadrature.size(); ++q)
+            {
+              for (unsigned int i = 0; i < n; ++i)
+                {
+                  eps[i] = fe_values[u].symmetric_gradient(i, q);
+                  div[i] = trace(eps[i]);
+                  val[i] = fe_values[u].value(i, q);
+                }
+              const double JxW = fe_values.JxW(q);
+              for (unsigned int i = 0; i < n; ++i)
+                for (unsigned int j = 0; j <= i; ++j)
+                  {
+                    // (lambda div u, div v) + (2 mu eps(u), eps(v))
+                    cell_K(i, j) += (lambda * div[i] * div[j] + 2 * mu * (eps[i] * eps[j])) * JxW;
+                    // (rho u, v)
+                    cell_M(i, j) += rho * (val[i] * val[j]) * JxW;
+                  }
+            }
+          for (unsigned int i = 0; i < n; ++i)
+            for (unsigned int j = i + 1; j < n; ++j)
+              {
+                cell_K(i, j) = cell_K(j, i);
+                cell_M(i, j) = cell_M(j, i);
+              }
+          cell->get_dof_indices(dofs);
+          constraints_.distribute_local_to_global(cell_K, dofs, stiffness_matrix_);
+          constraints_.distribute_local_to_global(cell_M, dofs, mass_matrix_);
+        }
+      // Clamped dofs carry no inertia: a zero mass diagonal sends their
+      // eigenvalues to infinity, away from the modes sought.
+      for (types::global_dof_index i = 0; i < dof_handler_.n_dofs(); ++i)
+        if (constraints_.is_constrained(i))
+          mass_matrix_.set(i, i, 0.0);
+      result_.plate_mass_kg = rho * L_ * W_ * t_;
+    }
+
+    void ReedElasticity::assemble_load()
+    {
+      const auto   load   = p_.settings.load;
+      const double a      = p_.geometry.port_center_x_m;
+      const double r      = 0.5 * p_.geometry.port_diameter_m;
+      const unsigned int face_id = load == Load::tip_line ? 1 : 4;
+      // Traction for a unit level: pressure 1 Pa pushing the underside up
+      // (+z), or a tip force of 1 N spread over the tip face.
+      const double traction = load == Load::tip_line ? 1.0 / (W_ * t_) : 1.0;
+
+      const QGauss<dim - 1>   regular(fe_.degree + 1);
+      const QIterated<dim - 1> fine(QGauss<1>(2), 48); // faces cut by the port's rim
+      FEFaceValues<dim> regular_values(fe_, regular,
+                                       update_values | update_quadrature_points | update_JxW_values);
+      FEFaceValues<dim> fine_values(fe_, fine,
+                                    update_values | update_quadrature_points | update_JxW_values);
+      const FEValuesExtractors::Scalar     uz(2);
+      const unsigned int                   n = fe_.n_dofs_per_cell();
+      Vector<double>                       cell_rhs(n);
+      std::vector<types::global_dof_index> dofs(n);
+      double                               force = 0;
+
+      const auto inside = [&](const Point<dim> &x) {
+        return load != Load::port_pressure || (x[0] - a) * (x[0] - a) + x[1] * x[1] < r * r;
+      };
+
+      for (const auto &cell : dof_handler_.active_cell_iterators())
+        for (const auto f : cell->face_indices())
+          {
+            const auto face = cell->face(f);
+            if (!face->at_boundary() || face->boundary_id() != face_id)
+              continue;
+            FEFaceValues<dim> *values = &regular_values;
+            if (load == Load::port_pressure)
+              {
+                unsigned int n_in = 0;
+                for (const auto v : face->vertex_indices())
+                  n_in += inside(face->vertex(v)) ? 1 : 0;
+                // nearest point of the face's rectangle to the port's axis
+                const Point<dim> lo = face->vertex(0), hi = face->vertex(3);
+                const double     nx = std::clamp(a, std::min(lo[0], hi[0]), std::max(lo[0], hi[0]));
+                const double     ny = std::clamp(0.0, std::min(lo[1], hi[1]), std::max(lo[1], hi[1]));
+                const bool touches = (nx - a) * (nx - a) + ny * ny < r * r;
+                if (!touches)
+                  continue;
+                if (n_in < face->n_vertices())
+                  values = &fine_values;
+              }
+            values->reinit(cell, f);
+            cell_rhs = 0;
+            for (unsigned int q = 0; q < values->n_quadrature_points; ++q)
+              {
+                if (!inside(values->quadrature_point(q)))
+                  continue;
+                const double w = traction * values->JxW(q);
+                force += w;
+                for (unsigned int i = 0; i < n; ++i)
+                  cell_rhs(i) += (*values)[uz].value(i, q) * w;
+              }
+            cell->get_dof_indices(dofs);
+            constraints_.distribute_local_to_global(cell_rhs, dofs, load_);
+          }
+      result_.force_per_level = force;
+    }
+
+    void ReedElasticity::solve()
+    {
+      stiffness_inverse_.initialize(stiffness_matrix_);
+      stiffness_inverse_.vmult(solution_, load_);
+      constraints_.distribute(solution_);
+    }
+
+    double ReedElasticity::tip_face_integral(const Vector<double> &u, bool antisymmetric) const
+    {
+      const QGauss<dim - 1>            quadrature(fe_.degree + 1);
+      FEFaceValues<dim>                values(fe_, quadrature,
+                                   update_values | update_quadrature_points | update_JxW_values);
+      const FEValuesExtractors::Scalar uz(2);
+      std::vector<double>              uz_q(quadrature.size());
+      double                           integral = 0;
+      for (const auto &cell : dof_handler_.active_cell_iterators())
+        for (const auto f : cell->face_indices())
+          if (cell->face(f)->at_boundary() && cell->face(f)->boundary_id() == 1)
+            {
+              values.reinit(cell, f);
+              values[uz].get_function_values(u, uz_q);
+              for (unsigned int q = 0; q < quadrature.size(); ++q)
+                {
+                  const double sign = antisymmetric ? (values.quadrature_point(q)[1] >= 0 ? 1 : -1) : 1;
+                  integral += sign * uz_q[q] * values.JxW(q);
+                }
+            }
+      return integral / (W_ * t_);
+    }
+
+    double ReedElasticity::value_z(const Vector<double> &u, const Point<dim> &p) const
+    {
+      Vector<double> v(dim);
+      VectorTools::point_value(dof_handler_, u, p, v);
+      return v[2];
+    }
+
+    void ReedElasticity::compute_modes()
+    {
+      const unsigned int n_modes = p_.settings.n_modes;
+      SolverControl      control(dof_handler_.n_dofs(), 1e-8);
+      const unsigned int n_arnoldi = std::max(2 * n_modes + 2, 20u);
+      ArpackSolver       eigensolver(control, ArpackSolver::AdditionalData(
+                                         n_arnoldi, ArpackSolver::largest_magnitude, true));
+      eigensolver.set_shift(0.0);
+      std::vector<std::complex<double>> eigenvalues(n_modes);
+      mode_shapes_.assign(n_modes, Vector<double>(dof_handler_.n_dofs()));
+      eigensolver.solve(stiffness_matrix_, mass_matrix_, stiffness_inverse_, eigenvalues, mode_shapes_,
+                        n_modes);
+      // ARPACK returns them in increasing order for a symmetric problem; sort to be sure.
+      std::vector<unsigned int> order(n_modes);
+      for (unsigned int i = 0; i < n_modes; ++i)
+        order[i] = i;
+      std::sort(order.begin(), order.end(),
+                [&](unsigned a, unsigned b) { return eigenvalues[a].real() < eigenvalues[b].real(); });
+      std::vector<Vector<double>> sorted;
+      Vector<double>              Mphi(dof_handler_.n_dofs());
+      for (unsigned int k : order)
+        {
+          Vector<double> phi = mode_shapes_[k];
+          constraints_.distribute(phi);
+          const double symmetric     = tip_face_integral(phi, false);
+          const double antisymmetric = tip_face_integral(phi, true);
+          Mode         mode;
+          mode.frequency_Hz  = std::sqrt(eigenvalues[k].real()) / (2 * std::numbers::pi);
+          mode.kind          = std::abs(symmetric) >= std::abs(antisymmetric) ? "bending" : "torsion";
+          mode.modal_mass_kg = 0;
+          if (mode.kind == "bending")
+            {
+              phi /= symmetric; // unit mean tip deflection
+              mass_matrix_.vmult(Mphi, phi);
+              mode.modal_mass_kg = phi * Mphi;
+            }
+          result_.modes.push_back(mode);
+          sorted.push_back(phi);
+        }
+      mode_shapes_ = std::move(sorted);
+    }
+
+    void ReedElasticity::sample_shape()
+    {
+      const std::size_t n = std::max<std::size_t>(options_.n_shape_points, 2);
+      const int         n_across = 11;
+      const double      tip      = tip_face_integral(solution_, false);
+      for (std::size_t k = 0; k < n; ++k)
+        {
+          const double s    = L_ * static_cast<double>(k) / static_cast<double>(n - 1);
+          double       mean = 0;
+          for (int j = 0; j < n_across; ++j)
+            {
+              // Gauss-Lobatto-like even spacing, the edges included
+              const double y = -W_ / 2 + W_ * j / (n_across - 1.0);
+              const double w = (j == 0 || j == n_across - 1) ? 0.5 : 1.0;
+              mean += w * value_z(solution_, Point<dim>(s, y, 0.0));
+            }
+          mean /= (n_across - 1.0);
+          result_.shape_s_m.push_back(s);
+          result_.shape_phi.push_back(mean / tip);
+          result_.shape_phi_centerline.push_back(value_z(solution_, Point<dim>(s, 0.0, 0.0)) / tip);
+        }
+    }
+
+    void ReedElasticity::output_results() const
+    {
+      if (options_.vtu_file.empty())
+        return;
+      DataOut<dim> data_out;
+      data_out.attach_dof_handler(dof_handler_);
+      const std::vector<DataComponentInterpretation::DataComponentInterpretation> vector(
+        dim, DataComponentInterpretation::component_is_part_of_vector);
+      Vector<double> u = solution_;
+      u *= p_.settings.load_levels.front();
+      data_out.add_data_vector(u, std::vector<std::string>(dim, "displacement_m"),
+                               DataOut<dim>::type_dof_data, vector);
+      for (std::size_t k = 0; k < mode_shapes_.size(); ++k)
+        data_out.add_data_vector(mode_shapes_[k],
+                                 std::vector<std::string>(dim, "mode_" + std::to_string(k + 1)),
+                                 DataOut<dim>::type_dof_data, vector);
+      data_out.build_patches(fe_.degree);
+      std::ostringstream out;
+      data_out.write_vtu(out);
+      write_file_atomic(options_.vtu_file, out.str());
+    }
+
+    StiffnessResult ReedElasticity::run()
+    {
+      const auto start = std::chrono::steady_clock::now();
+      auto       lap   = start;
+      const auto phase = [&](const char *name) {
+        const auto now = std::chrono::steady_clock::now();
+        result_.phase_times.emplace_back(name, std::chrono::duration<double>(now - lap).count());
+        lap = now;
+      };
+      make_grid();
+      setup_system();
+      phase("setup");
+      assemble_system();
+      assemble_load();
+      phase("assemble");
+      solve();
+      phase("factorise and solve");
+
+      const double F         = result_.force_per_level;
+      const double tip       = tip_face_integral(solution_, false);
+      const double tip_centre = value_z(solution_, Point<dim>(L_, 0.0, t_ / 2));
+      result_.k_N_per_m        = F / tip;
+      result_.k_center_N_per_m = F / tip_centre;
+      const double I           = analytic::second_moment(W_, t_);
+      for (double level : p_.settings.load_levels)
+        {
+          LoadLevel l;
+          l.level                   = level;
+          l.force_N                 = F * level;
+          l.tip_deflection_m        = tip * level;
+          l.tip_center_deflection_m = tip_centre * level;
+          l.deflection_ratio        = l.tip_deflection_m / L_;
+          // M at the clamp from the load's resultant: F * (distance of its centroid)
+          const double arm = p_.settings.load == Load::port_pressure ? p_.geometry.port_center_x_m :
+                             p_.settings.load == Load::tip_line      ? L_ :
+                                                                       L_ / 2;
+          l.root_stress_beam_Pa = l.force_N * arm * (t_ / 2) / I;
+          l.small_deflection    = l.deflection_ratio <= p_.settings.max_linear_deflection_ratio;
+          result_.levels.push_back(l);
+        }
+      if (options_.compute_modes)
+        compute_modes();
+      phase("modes");
+      sample_shape();
+      phase("shape");
+      output_results();
+      phase("output");
+      result_.wall_time_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      return result_;
+    }
+  } // namespace
+
+  StiffnessResult solve_reed(const StiffnessParameters &parameters, const SolveOptions &options)
+  {
+    ReedElasticity solver(parameters, options);
+    return solver.run();
+  }
+} // namespace rectify::stiffness

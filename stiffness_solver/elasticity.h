@@ -1,0 +1,60 @@
+// Linear elasticity of the reed plate (deal.II, 3D, hexahedral Q2 elements
+// with several layers through the thickness: no shear locking in bending):
+// its stiffness under the chosen load, its deflected shape and its natural
+// modes. The interface is plain C++; deal.II stays inside elasticity.cpp.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "stiffness_solver/parameters.h"
+
+namespace rectify::stiffness
+{
+  struct LoadLevel
+  {
+    double level;                   ///< pressure [Pa] or tip force [N]
+    double force_N;                 ///< total force applied
+    double tip_deflection_m;        ///< mean over the tip face
+    double tip_center_deflection_m; ///< at the tip's centre (y = 0, mid-thickness)
+    double deflection_ratio;        ///< tip deflection / reed length
+    double root_stress_beam_Pa;     ///< bending stress at the clamp, beam theory
+    bool   small_deflection;        ///< deflection_ratio <= the settings' limit
+  };
+
+  struct Mode
+  {
+    double      frequency_Hz;
+    std::string kind;          ///< "bending" (symmetric in y) or "torsion"
+    double      modal_mass_kg; ///< phi^T M phi with the tip's mean deflection 1 (bending modes)
+  };
+
+  struct StiffnessResult
+  {
+    std::size_t n_dofs = 0, n_cells = 0;
+    double      force_per_level = 0; ///< F for a unit level: the loaded area [m^2], or 1 for a force
+    double      k_N_per_m = 0;       ///< F / mean tip deflection
+    double      k_center_N_per_m = 0; ///< F / tip-centre deflection
+    std::vector<LoadLevel> levels;
+    std::vector<Mode>      modes;
+    double      plate_mass_kg = 0;
+    /// The deflected underside under the load, normalised to a unit mean tip
+    /// deflection: s from the clamp, phi averaged across the width, and on the
+    /// centre line. phi(0) = 0, phi(L) = 1.
+    std::vector<double> shape_s_m, shape_phi, shape_phi_centerline;
+    double      wall_time_s = 0;
+    /// Wall time of each phase [s], in order: for benchmarks.
+    std::vector<std::pair<std::string, double>> phase_times;
+  };
+
+  struct SolveOptions
+  {
+    bool                  compute_modes = true;
+    std::filesystem::path vtu_file; ///< empty: no VTU
+    std::size_t           n_shape_points = 61;
+  };
+
+  /// Solves the reed. Throws std::runtime_error if a solver fails.
+  StiffnessResult solve_reed(const StiffnessParameters &parameters, const SolveOptions &options = {});
+} // namespace rectify::stiffness
