@@ -1,7 +1,5 @@
-// Reading a case file for any subcommand: every stage's parameters are read
-// (and range-checked) so that a key no stage knows is reported whichever
-// subcommand runs.
-#include "app/commands.h"
+#include "app/case_loading.h"
+
 #include "stiffness_solver/parameters.h"
 #include "system/parameters.h"
 

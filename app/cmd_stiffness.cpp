@@ -2,9 +2,11 @@
 // (stiffness_solver/).
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <sstream>
 
 #include "app/commands.h"
+#include "common/checkpoint.h"
 #include "common/io.h"
 #include "common/plot.h"
 #include "common/progress.h"
@@ -233,6 +235,177 @@ namespace rectify::app
                     l.small_deflection ? "small deflection" : "beyond small-deflection theory");
       std::printf("%zu dofs, %.2f s; wrote %s\n", r.n_dofs, r.wall_time_s, (out / "summary.json").c_str());
     }
+    // ---------------------------------------------------------- map-stiffness
+    struct MapStiffnessOptions
+    {
+      std::string case_path = reference_case_path().string();
+      std::string out_dir;
+      std::string thickness; ///< FROM:TO:N [m]
+    };
+
+    std::vector<double> parse_range(const std::string &text, const std::string &option)
+    {
+      std::vector<std::string> parts;
+      std::stringstream        in(text);
+      for (std::string part; std::getline(in, part, ':');)
+        parts.push_back(part);
+      double      from = 0, to = 0;
+      std::size_t n    = 0;
+      try
+        {
+          if (parts.size() != 3)
+            throw std::invalid_argument("parts");
+          std::size_t used = 0;
+          from             = std::stod(parts[0], &used);
+          if (used != parts[0].size())
+            throw std::invalid_argument("from");
+          to = std::stod(parts[1], &used);
+          if (used != parts[1].size())
+            throw std::invalid_argument("to");
+          const long count = std::stol(parts[2], &used);
+          if (used != parts[2].size() || count < 1)
+            throw std::invalid_argument("n");
+          n = static_cast<std::size_t>(count);
+        }
+      catch (const std::exception &)
+        {
+          throw InputError(option + " '" + text + "': expected FROM:TO:N, e.g. 0.1e-3:0.2e-3:10");
+        }
+      if (!(from > 0) || !(to >= from) || !std::isfinite(to) || (n == 1 && to != from))
+        throw InputError(option + " '" + text + "': need 0 < FROM <= TO, and N >= 2 for a range");
+      std::vector<double> v(n);
+      for (std::size_t i = 0; i < n; ++i)
+        v[i] = n == 1 ? from : from + (to - from) * static_cast<double>(i) / static_cast<double>(n - 1);
+      return v;
+    }
+
+    void map_stiffness_command(const MapStiffnessOptions &o)
+    {
+      const CaseFile      file       = load_case(o.case_path);
+      const auto          base       = StiffnessParameters::from_case(file);
+      const auto          thicknesses = parse_range(o.thickness, "--thickness");
+      const std::filesystem::path out(o.out_dir);
+      for (double t : thicknesses)
+        if (t >= 0.5 * std::min(base.geometry.reed_length_m, base.geometry.reed_width_m))
+          throw InputError("--thickness " + format_number(t) + " m: a reed must be a thin plate");
+      std::fprintf(stderr, "rectify map-stiffness\n  case                   %s\n  thickness [m]          %s (%zu values)\n  out                    %s\n",
+                   o.case_path.c_str(), o.thickness.c_str(), thicknesses.size(), o.out_dir.c_str());
+      ensure_directory(out);
+
+      nlohmann::json fingerprint = {{"thickness_m", thicknesses},
+                                    {"reed_length_m", base.geometry.reed_length_m},
+                                    {"reed_width_m", base.geometry.reed_width_m},
+                                    {"port_diameter_m", base.geometry.port_diameter_m},
+                                    {"port_center_x_m", base.geometry.port_center_x_m},
+                                    {"youngs_modulus_Pa", base.material.youngs_modulus_Pa},
+                                    {"poisson_ratio", base.material.poisson_ratio},
+                                    {"density_kg_per_m3", base.material.density_kg_per_m3},
+                                    {"fluid_density_kg_per_m3", base.fluid.density_kg_per_m3},
+                                    {"load", to_string(base.settings.load)},
+                                    {"mesh", {base.settings.cells_along_length, base.settings.cells_across_width,
+                                              base.settings.cells_through_thickness, base.settings.fe_degree}},
+                                    {"n_modes", base.settings.n_modes},
+                                    {"added_mass_factor", base.settings.added_mass_factor}};
+      const std::vector<std::string> columns{
+        "thickness_m",          "stiffness_N_per_m",     "frequency_Hz",         "modal_mass_kg",
+        "frequency_in_fluid_Hz", "modal_mass_in_fluid_kg", "effective_mass_eq321_kg",
+        "frequency_eq321_Hz",   "n_dofs",                "wall_time_s"};
+      std::string header;
+      for (const auto &c : columns)
+        header += (header.empty() ? "" : ",") + c;
+      Checkpoint checkpoint(out, "map-partial", fingerprint, header);
+      std::map<double, std::vector<double>> done;
+      for (const auto &row : checkpoint.finished_rows())
+        {
+          const auto csv = parse_csv(header + "\n" + row + "\n", (out / "map-partial.csv").string());
+          done[csv.rows[0][0]] = csv.rows[0];
+        }
+
+      const std::size_t n_resumed = done.size();
+      Progress          progress("map-stiffness", thicknesses.size(), n_resumed);
+      for (double t : thicknesses)
+        {
+          if (done.count(t))
+            continue;
+          auto p                      = base;
+          p.geometry.reed_thickness_m = t;
+          SolveOptions so;
+          so.n_shape_points   = 2;
+          const auto    r     = solve_reed(p, so);
+          const Bounds  b     = bounds(p);
+          const InFluid fluid = in_fluid(r, b, p.settings.added_mass_factor);
+          const std::vector<double> row{t,
+                                        r.k_N_per_m,
+                                        r.modes.empty() ? 0.0 : r.modes[0].frequency_Hz,
+                                        r.modes.empty() ? 0.0 : r.modes[0].modal_mass_kg,
+                                        fluid.frequency_Hz,
+                                        fluid.modal_mass_kg,
+                                        fluid.eq321_mass_kg,
+                                        fluid.eq321_frequency_Hz,
+                                        static_cast<double>(r.n_dofs),
+                                        r.wall_time_s};
+          std::string line;
+          char        buf[40];
+          for (double v : row)
+            {
+              std::snprintf(buf, sizeof(buf), "%.17g", v);
+              line += (line.empty() ? "" : ",") + std::string(buf);
+            }
+          checkpoint.append(line);
+          done[t] = row;
+          char what[128];
+          std::snprintf(what, sizeof(what), "t = %.4g m: k = %.5g N/m, f1 = %.5g Hz, %.1f s", t,
+                        r.k_N_per_m, row[2], r.wall_time_s);
+          progress.step(what);
+        }
+
+      // The map: CSV with a JSON metadata line, the convention of every rectify map.
+      CsvTable table(columns);
+      for (double t : thicknesses)
+        table.add_row(done.at(t));
+      nlohmann::json meta = fingerprint;
+      meta["quantity"]    = "reed stiffness, first mode and masses vs thickness";
+      meta["written_by"]  = std::string("rectify ") + RECTIFY_VERSION;
+      write_file_atomic(out / "reed-map.csv", "# rectify reed map: k_r, f1 and masses vs reed thickness\n# meta: " +
+                                                 meta.dump() + "\n" + table.to_string());
+      // log-log slope of k(t) by least squares
+      double sx = 0, sy = 0, sxx = 0, sxy = 0;
+      const double n = static_cast<double>(thicknesses.size());
+      for (double t : thicknesses)
+        {
+          const double x = std::log(t), y = std::log(done.at(t)[1]);
+          sx += x;
+          sy += y;
+          sxx += x * x;
+          sxy += x * y;
+        }
+      const double slope = n > 1 ? (n * sxy - sx * sy) / (n * sxx - sx * sx) : 0.0;
+      const bool plotted = render_plot(
+        out / "reed-map",
+        {{"Reed stiffness vs thickness (log-log slope " + format_number(std::round(slope * 1000) / 1000) + ")",
+          "thickness [mm]", "k_r [N/m]", true, true,
+          {{out / "reed-map.csv", "thickness_m", "stiffness_N_per_m", "k_r (FE)", "linespoints", 1e3, 1}}},
+         {"First natural frequency vs thickness", "thickness [mm]", "f1 [Hz]", true, true,
+          {{out / "reed-map.csv", "thickness_m", "frequency_Hz", "in vacuum", "linespoints", 1e3, 1},
+           {out / "reed-map.csv", "thickness_m", "frequency_in_fluid_Hz", "in oil (eq. 3.20)", "linespoints", 1e3, 1},
+           {out / "reed-map.csv", "thickness_m", "frequency_eq321_Hz", "thesis eq. 3.21", "linespoints", 1e3, 1}}}});
+      nlohmann::json summary = {{"command", "map-stiffness"},
+                                {"rectify_version", RECTIFY_VERSION},
+                                {"case", o.case_path},
+                                {"thickness_m", table.column("thickness_m")},
+                                {"k_N_per_m", table.column("stiffness_N_per_m")},
+                                {"frequency_Hz", table.column("frequency_Hz")},
+                                {"modal_mass_kg", table.column("modal_mass_kg")},
+                                {"frequency_in_fluid_Hz", table.column("frequency_in_fluid_Hz")},
+                                {"effective_mass_eq321_kg", table.column("effective_mass_eq321_kg")},
+                                {"wall_time_s", table.column("wall_time_s")},
+                                {"k_loglog_slope", slope},
+                                {"runs_resumed", n_resumed},
+                                {"files", {"reed-map.csv", plotted ? "reed-map.png" : ""}}};
+      write_json(out / "summary.json", summary);
+      std::printf("k ~ t^%.4f over %zu thicknesses; wrote %s\n", slope, thicknesses.size(),
+                  (out / "reed-map.csv").c_str());
+    }
   } // namespace
 
   void register_stiffness_commands(CLI::App &app)
@@ -245,5 +418,15 @@ namespace rectify::app
     cmd->add_option("--case", o->case_path, "case file (TOML)")->capture_default_str();
     cmd->add_option("--out", o->out_dir, "output folder")->required();
     cmd->callback([o]() { stiffness_command(*o); });
+
+    auto  m    = std::make_shared<MapStiffnessOptions>();
+    auto *mcmd = app.add_subcommand(
+      "map-stiffness",
+      "Reed stiffness, first mode and masses vs thickness (design what-if), as a map.\n"
+      "Example: rectify map-stiffness --thickness 0.1e-3:0.2e-3:10 --out runs/reed-map");
+    mcmd->add_option("--case", m->case_path, "case file (TOML)")->capture_default_str();
+    mcmd->add_option("--out", m->out_dir, "output folder")->required();
+    mcmd->add_option("--thickness", m->thickness, "reed thicknesses FROM:TO:N [m]")->required();
+    mcmd->callback([m]() { map_stiffness_command(*m); });
   }
 } // namespace rectify::app

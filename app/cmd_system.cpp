@@ -270,9 +270,9 @@ namespace rectify::app
 
       // Long table: every run with its diagnostics.
       const bool  pressure = scenario == system::Scenario::no_flow;
-      std::string long_csv = system::sweep_point_csv_header();
+      std::string long_csv = system::sweep_point_csv_header() + "\n";
       for (const auto &pt : r.points)
-        long_csv += system::to_csv_row(pt);
+        long_csv += system::to_csv_row(pt) + "\n";
       write_file_atomic(out / "sweep-runs.csv", long_csv);
 
       // Wide table for plotting: one column per series.

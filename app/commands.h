@@ -4,14 +4,11 @@
 #include <CLI/CLI.hpp>
 #include <filesystem>
 
+#include "app/case_loading.h"
 #include "common/case_file.h"
 
 namespace rectify::app
 {
-  /// Loads a case file, reads every stage's parameters from it (so that any
-  /// unknown key is reported, whichever subcommand runs) and checks keys.
-  CaseFile load_case(const std::filesystem::path &path);
-
   /// `simulate` and `sweep` (system/).
   void register_system_commands(CLI::App &app);
 

@@ -11,6 +11,7 @@ packages=(
   nlohmann-json3-dev     # summary.json and map metadata
   libtoml11-dev          # case files
   libcli11-dev           # the command line
+  libdeal.ii-dev         # finite elements: reed elasticity (ARPACK, UMFPACK inside)
   libgtest-dev           # tests
   gnuplot-nox            # plots (PNG and SVG)
   libopenblas0-pthread   # fast BLAS for the sparse direct solves of the FE stages

@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "common/case_file.h"
+#include "common/checkpoint.h"
 #include "common/io.h"
 #include "common/progress.h"
 
@@ -48,14 +49,14 @@ namespace rectify::system
   {
     return "series,frequency_Hz,stored_pressure_Pa,mean_velocity_m_per_s,settled,metric_stderr,"
            "regime,startup_cycles,measured_cycles,wall_time_s,volume_balance_rel_error,"
-           "cvode_steps,rhs_evaluations,jacobian_evaluations,events,warnings\n";
+           "cvode_steps,rhs_evaluations,jacobian_evaluations,events,warnings";
   }
 
   std::string to_csv_row(const SweepPoint &p)
   {
     char buf[512];
     std::snprintf(buf, sizeof(buf),
-                  "%s,%.17g,%.17g,%.17g,%d,%.17g,%s,%zu,%zu,%.6g,%.6g,%ld,%ld,%ld,%ld,%zu\n",
+                  "%s,%.17g,%.17g,%.17g,%d,%.17g,%s,%zu,%zu,%.6g,%.6g,%ld,%ld,%ld,%ld,%zu",
                   p.series.c_str(), p.frequency_Hz, p.stored_pressure_Pa, p.mean_velocity_m_per_s,
                   p.settled ? 1 : 0, p.metric_stderr, p.regime.c_str(), p.startup_cycles,
                   p.measured_cycles, p.wall_time_s, p.volume_balance_rel_error, p.steps,
@@ -65,8 +66,6 @@ namespace rectify::system
 
   namespace
   {
-    const char *partial_name     = "sweep-partial.csv";
-    const char *fingerprint_name = "sweep-partial.json";
 
     bool parse_point(const std::string &line, SweepPoint &p)
     {
@@ -133,38 +132,16 @@ namespace rectify::system
                                   {"finite_difference_jacobian", options.run.finite_difference_jacobian},
                                   {"parameters", parameters.to_json()}};
 
-    // Resume: read what a previous run with the same settings finished.
-    const auto  partial = out_dir / partial_name;
-    const auto  fp_path = out_dir / fingerprint_name;
+    // Resume: what a previous run with the same settings finished.
+    Checkpoint                        checkpoint(out_dir, "sweep-partial", fingerprint,
+                                                 sweep_point_csv_header());
     std::map<std::string, SweepPoint> done;
-    if (std::filesystem::exists(partial))
+    for (const auto &row : checkpoint.finished_rows())
       {
-        nlohmann::json old;
-        try
-          {
-            std::ifstream in(fp_path);
-            old = nlohmann::json::parse(in);
-          }
-        catch (const std::exception &)
-          {
-            old = nullptr;
-          }
-        if (old != fingerprint)
-          throw InputError("'" + out_dir.string() +
-                           "' holds a partial sweep run with other settings (" +
-                           fp_path.string() +
-                           "); choose another --out, or delete its sweep-partial.* files");
-        std::ifstream in(partial);
-        std::string   line;
-        while (std::getline(in, line))
-          {
-            SweepPoint p;
-            if (!in.eof() && parse_point(line, p)) // a last line without newline was cut off
-              done[key(p.series, p.frequency_Hz)] = p;
-          }
+        SweepPoint p;
+        if (parse_point(row, p))
+          done[key(p.series, p.frequency_Hz)] = p;
       }
-    else
-      write_json(fp_path, fingerprint);
 
     struct Job
     {
@@ -191,16 +168,6 @@ namespace rectify::system
     const std::size_t n_total = options.series.size() * options.frequencies_Hz.size();
     Progress          progress("sweep", n_total, done.size(), options.quiet);
 
-    const bool fresh = !std::filesystem::exists(partial);
-    std::FILE *log   = std::fopen(partial.c_str(), "a");
-    if (!log)
-      throw std::runtime_error("cannot append to '" + partial.string() + "'");
-    if (fresh)
-      {
-        const std::string header = sweep_point_csv_header();
-        std::fwrite(header.data(), 1, header.size(), log);
-        std::fflush(log);
-      }
     std::mutex               mutex;
     std::atomic<std::size_t> next{0};
     std::exception_ptr       failure;
@@ -246,11 +213,9 @@ namespace rectify::system
                             r.stats.jacobian_evaluations,
                             r.stats.events,
                             r.warnings.size()};
+              checkpoint.append(to_csv_row(pt));
               {
                 std::lock_guard<std::mutex> lock(mutex);
-                const std::string           line = to_csv_row(pt);
-                std::fwrite(line.data(), 1, line.size(), log);
-                std::fflush(log);
                 done[key(pt.series, pt.frequency_Hz)] = pt;
               }
               char what[160];
@@ -275,7 +240,6 @@ namespace rectify::system
       threads.emplace_back(worker);
     for (auto &t : threads)
       t.join();
-    std::fclose(log);
     if (failure)
       std::rethrow_exception(failure);
 

@@ -523,6 +523,56 @@ TEST(Cli, SimulateWritesSummaryTableAndPlot)
     EXPECT_EQ(e.path().string().find(".tmp."), std::string::npos) << e.path();
 }
 
+TEST(Cli, StiffnessWritesSummaryShapeAndVtu)
+{
+  const auto dir = scratch("stiffness");
+  write_file_atomic(dir / "coarse.toml", "[stiffness]\ncells_along_length = 12\ncells_across_width = 10\n"
+                                         "cells_through_thickness = 1\nn_modes = 2\n");
+  const auto r = rectify_cli("stiffness --case " + (dir / "coarse.toml").string() + " --out " + (dir / "out").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream in(dir / "out" / "summary.json");
+  const auto    s = nlohmann::json::parse(in);
+  for (const char *key : {"k_N_per_m", "tip_deflection_m", "frequencies_Hz", "modal_mass_kg",
+                          "frequency_in_fluid_Hz", "n_dofs", "wall_time_s"})
+    EXPECT_TRUE(s.contains(key)) << key;
+  EXPECT_EQ(s["frequencies_Hz"].size(), 2u);
+  EXPECT_TRUE(std::filesystem::exists(dir / "out" / "reed.vtu"));
+  // the shape table the mesher reads: s from 0 to L, phi from 0 to 1, monotone
+  const auto shape = read_csv(dir / "out" / "shape.csv");
+  const auto cs = shape.column_index("s_m", "shape.csv"), cp = shape.column_index("phi", "shape.csv");
+  EXPECT_EQ(shape.rows.front()[cs], 0.0);
+  EXPECT_NEAR(shape.rows.back()[cs], 6.1e-3, 1e-12);
+  EXPECT_NEAR(shape.rows.back()[cp], 1.0, 1e-3);
+  for (std::size_t i = 1; i < shape.rows.size(); ++i)
+    EXPECT_GT(shape.rows[i][cp], shape.rows[i - 1][cp]);
+}
+
+TEST(Cli, MapStiffnessResumesAndRejectsBadRanges)
+{
+  const auto dir = scratch("map_stiffness");
+  write_file_atomic(dir / "coarse.toml", "[stiffness]\ncells_along_length = 8\ncells_across_width = 6\n"
+                                         "cells_through_thickness = 1\nn_modes = 1\n");
+  const std::string args = "map-stiffness --case " + (dir / "coarse.toml").string() +
+                           " --thickness 0.1e-3:0.2e-3:3 --out " + (dir / "out").string();
+  auto r = rectify_cli(args);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream in1(dir / "out" / "summary.json");
+  const auto    first = nlohmann::json::parse(in1);
+  EXPECT_NEAR(first["k_loglog_slope"].get<double>(), 3.0, 0.06);
+  r = rectify_cli(args); // everything finished: nothing is recomputed
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream in2(dir / "out" / "summary.json");
+  const auto    second = nlohmann::json::parse(in2);
+  EXPECT_EQ(second["runs_resumed"], 3);
+  EXPECT_EQ(second["k_N_per_m"], first["k_N_per_m"]);
+  r = rectify_cli("map-stiffness --thickness 0.2e-3:0.1e-3:3 --out " + (dir / "bad").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("FROM <= TO"), std::string::npos) << r.output;
+  r = rectify_cli("map-stiffness --thickness 1e-4:2e-4 --out " + (dir / "bad").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_FALSE(std::filesystem::exists(dir / "bad"));
+}
+
 TEST(Cli, InterruptedSweepResumesWithoutRepeatingOrLosingRuns)
 {
   const auto  dir  = scratch("sweep");

@@ -1,0 +1,38 @@
+// Checkpoints of long runs made of independent items (sweep frequencies,
+// thicknesses): every finished item is appended at once as one CSV row to
+// DIR/NAME.csv, beside DIR/NAME.json holding the settings that produced them.
+// Started again with the same settings, a run reads the finished rows and
+// does only the rest; with other settings it refuses rather than mix them.
+#pragma once
+
+#include <cstdio>
+#include <filesystem>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+namespace rectify
+{
+  class Checkpoint
+  {
+  public:
+    /// `header` is the CSV header line (without newline). Throws InputError
+    /// if DIR holds a checkpoint of the same name made with other settings.
+    Checkpoint(const std::filesystem::path &dir, const std::string &name,
+               const nlohmann::json &fingerprint, const std::string &header);
+    ~Checkpoint();
+    Checkpoint(const Checkpoint &)            = delete;
+    Checkpoint &operator=(const Checkpoint &) = delete;
+
+    /// The complete rows found when opening (a row cut off by a kill is dropped).
+    const std::vector<std::string> &finished_rows() const { return rows_; }
+    /// Appends one row (without newline) and flushes it. Thread-safe.
+    void append(const std::string &row);
+
+  private:
+    std::vector<std::string> rows_;
+    std::FILE               *file_ = nullptr;
+    std::mutex               mutex_;
+  };
+} // namespace rectify
