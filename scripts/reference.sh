@@ -5,6 +5,7 @@
 #   no-flow/stored-pressure        1-1200 Hz, 4 A p-p / 2 A bias, dynamic and ideal valves (Fig. 5.3)
 #   loaded/velocity                10-3500 Hz, 50 lb, dynamic, ideal, reed what-if (Figs. 5.4-5.6)
 #   loaded/trace-1420Hz            the phase lag of Fig. 5.5
+#   stiffness                      the reed's stiffness, shape and modes (sec. 3.1.3)
 # Interrupted? Run it again: finished sweep points are kept and not redone.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -19,4 +20,5 @@ $rectify sweep --scenario no-flow --current-pp 4 --current-bias 2 --from 1 --to 
 $rectify sweep --scenario loaded --from 10 --to 3500 --n 100 --spacing linear \
   --out $out/loaded/velocity
 $rectify simulate --scenario loaded --frequency 1420 --cycles 300 --out $out/loaded/trace-1420Hz
+$rectify stiffness --out $out/stiffness
 echo "reference case done: see $out/*/*/summary.json and the PNG plots beside them"
