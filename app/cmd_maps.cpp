@@ -12,7 +12,7 @@ namespace rectify::app
   {
     struct MapThesisOptions
     {
-      std::string case_path = reference_case_path().string();
+      std::string case_path;
       std::string out_dir;
       std::size_t n = 25;
     };
@@ -59,8 +59,7 @@ namespace rectify::app
     auto *cmd = app.add_subcommand(
       "map-thesis",
       "Write the thesis's R(x) (eq. 3.40, floor and closed value of sec. 3.2.4) as a map file.");
-    cmd->add_option("--case", o->case_path, "case file (TOML)")->capture_default_str();
-    cmd->add_option("--out", o->out_dir, "output folder")->required();
+    add_case_and_out(*cmd, o->case_path, o->out_dir);
     cmd->add_option("--n", o->n, "samples from 2 to 1210 um, log-spaced")->capture_default_str();
     cmd->callback([o]() { map_thesis(*o); });
   }

@@ -100,7 +100,7 @@ namespace rectify::app
 
     struct StiffnessOptions
     {
-      std::string case_path = reference_case_path().string();
+      std::string case_path;
       std::string out_dir;
     };
 
@@ -109,13 +109,19 @@ namespace rectify::app
       const CaseFile file = load_case(o.case_path);
       const auto     p    = StiffnessParameters::from_case(file);
       const auto    &s    = p.settings;
-      std::fprintf(stderr,
-                   "rectify stiffness\n  case                   %s\n  reed                   %g x %g x %g m, E %g Pa, nu %g\n"
-                   "  load                   %s\n  mesh                   %u x %u x %u cells, Q%u\n  out                    %s\n",
-                   o.case_path.c_str(), p.geometry.reed_length_m, p.geometry.reed_width_m,
-                   p.geometry.reed_thickness_m, p.material.youngs_modulus_Pa, p.material.poisson_ratio,
-                   to_string(s.load).c_str(), s.cells_along_length, s.cells_across_width,
-                   s.cells_through_thickness, s.fe_degree, o.out_dir.c_str());
+      echo_settings("stiffness",
+                    {{"case", o.case_path},
+                     {"reed [m]", format_number(p.geometry.reed_length_m) + " x " +
+                                    format_number(p.geometry.reed_width_m) + " x " +
+                                    format_number(p.geometry.reed_thickness_m)},
+                     {"material", "E " + format_number(p.material.youngs_modulus_Pa) + " Pa, nu " +
+                                    format_number(p.material.poisson_ratio)},
+                     {"load", to_string(s.load)},
+                     {"mesh", std::to_string(s.cells_along_length) + " x " +
+                                std::to_string(s.cells_across_width) + " x " +
+                                std::to_string(s.cells_through_thickness) + " cells, Q" +
+                                std::to_string(s.fe_degree)},
+                     {"out", o.out_dir}});
       const std::filesystem::path out(o.out_dir);
       ensure_directory(out);
       SolveOptions so;
@@ -238,7 +244,7 @@ namespace rectify::app
     // ---------------------------------------------------------- map-stiffness
     struct MapStiffnessOptions
     {
-      std::string case_path = reference_case_path().string();
+      std::string case_path;
       std::string out_dir;
       std::string thickness; ///< FROM:TO:N [m]
     };
@@ -288,8 +294,9 @@ namespace rectify::app
       for (double t : thicknesses)
         if (t >= 0.5 * std::min(base.geometry.reed_length_m, base.geometry.reed_width_m))
           throw InputError("--thickness " + format_number(t) + " m: a reed must be a thin plate");
-      std::fprintf(stderr, "rectify map-stiffness\n  case                   %s\n  thickness [m]          %s (%zu values)\n  out                    %s\n",
-                   o.case_path.c_str(), o.thickness.c_str(), thicknesses.size(), o.out_dir.c_str());
+      echo_settings("map-stiffness", {{"case", o.case_path},
+                                      {"thickness [m]", o.thickness + " (" + std::to_string(thicknesses.size()) + " values)"},
+                                      {"out", o.out_dir}});
       ensure_directory(out);
 
       nlohmann::json fingerprint = {{"thickness_m", thicknesses},
@@ -415,8 +422,7 @@ namespace rectify::app
       "stiffness",
       "Reed stiffness, deflected shape and modes: 3D linear elasticity (deal.II, Q2 hexahedra).\n"
       "Example: rectify stiffness --out runs/stiffness");
-    cmd->add_option("--case", o->case_path, "case file (TOML)")->capture_default_str();
-    cmd->add_option("--out", o->out_dir, "output folder")->required();
+    add_case_and_out(*cmd, o->case_path, o->out_dir);
     cmd->callback([o]() { stiffness_command(*o); });
 
     auto  m    = std::make_shared<MapStiffnessOptions>();
@@ -424,8 +430,7 @@ namespace rectify::app
       "map-stiffness",
       "Reed stiffness, first mode and masses vs thickness (design what-if), as a map.\n"
       "Example: rectify map-stiffness --thickness 0.1e-3:0.2e-3:10 --out runs/reed-map");
-    mcmd->add_option("--case", m->case_path, "case file (TOML)")->capture_default_str();
-    mcmd->add_option("--out", m->out_dir, "output folder")->required();
+    add_case_and_out(*mcmd, m->case_path, m->out_dir);
     mcmd->add_option("--thickness", m->thickness, "reed thicknesses FROM:TO:N [m]")->required();
     mcmd->callback([m]() { map_stiffness_command(*m); });
   }

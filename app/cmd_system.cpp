@@ -19,7 +19,7 @@ namespace rectify::app
     /// Options shared by simulate and sweep.
     struct CommonOptions
     {
-      std::string case_path = reference_case_path().string();
+      std::string case_path;
       std::string out_dir;
       std::string scenario  = "no-flow";
       bool        ideal_valves = false;
@@ -30,8 +30,7 @@ namespace rectify::app
 
       void add_to(CLI::App &cmd)
       {
-        cmd.add_option("--case", case_path, "case file (TOML)")->capture_default_str();
-        cmd.add_option("--out", out_dir, "output folder")->required();
+        add_case_and_out(cmd, case_path, out_dir);
         cmd.add_option("--scenario", scenario, "no-flow (output mass 1e12 kg) or loaded")
           ->check(CLI::IsMember({"no-flow", "loaded"}))
           ->capture_default_str();
@@ -93,13 +92,6 @@ namespace rectify::app
       return system::Drive::from_csv(p.drive.waveform, frequency);
     }
 
-    void echo(const std::string &command, const std::vector<std::pair<std::string, std::string>> &items)
-    {
-      std::fprintf(stderr, "rectify %s\n", command.c_str());
-      for (const auto &[k, v] : items)
-        std::fprintf(stderr, "  %-22s %s\n", k.c_str(), v.c_str());
-    }
-
     // ---------------------------------------------------------------- simulate
     struct SimulateOptions : CommonOptions
     {
@@ -116,7 +108,7 @@ namespace rectify::app
         p.drive.waveform = std::filesystem::absolute(o.current_csv).string();
       const auto scenario = system::parse_scenario(o.scenario);
       const auto valves   = o.ideal_valves ? system::ValveModel::ideal : system::ValveModel::dynamic;
-      echo("simulate", {{"case", o.case_path},
+      echo_settings("simulate", {{"case", o.case_path},
                         {"scenario", o.scenario},
                         {"valves", system::to_string(valves)},
                         {"frequency [Hz]", format_number(o.frequency_Hz)},
@@ -251,7 +243,7 @@ namespace rectify::app
       std::string series_list;
       for (const auto &n : names)
         series_list += (series_list.empty() ? "" : ", ") + n;
-      echo("sweep", {{"case", o.case_path},
+      echo_settings("sweep", {{"case", o.case_path},
                      {"scenario", o.scenario},
                      {"series", series_list},
                      {"frequencies [Hz]", format_number(o.from_Hz) + " .. " + format_number(o.to_Hz) +

@@ -3,12 +3,23 @@
 
 #include <CLI/CLI.hpp>
 #include <filesystem>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "app/case_loading.h"
 #include "common/case_file.h"
 
 namespace rectify::app
 {
+  /// The options every subcommand has: --case FILE (default: the reference
+  /// case) and --out DIR (required).
+  void add_case_and_out(CLI::App &command, std::string &case_path, std::string &out_dir);
+
+  /// Echoes a command's settings at start-up, one "name value" line each, on stderr.
+  void echo_settings(const std::string                                       &command,
+                     const std::vector<std::pair<std::string, std::string>> &settings);
+
   /// `simulate` and `sweep` (system/).
   void register_system_commands(CLI::App &app);
 

@@ -1,0 +1,21 @@
+#include <cstdio>
+
+#include "app/commands.h"
+
+namespace rectify::app
+{
+  void add_case_and_out(CLI::App &command, std::string &case_path, std::string &out_dir)
+  {
+    case_path = reference_case_path().string();
+    command.add_option("--case", case_path, "case file (TOML)")->capture_default_str();
+    command.add_option("--out", out_dir, "output folder")->required();
+  }
+
+  void echo_settings(const std::string                                       &command,
+                     const std::vector<std::pair<std::string, std::string>> &settings)
+  {
+    std::fprintf(stderr, "rectify %s\n", command.c_str());
+    for (const auto &[name, value] : settings)
+      std::fprintf(stderr, "  %-22s %s\n", name.c_str(), value.c_str());
+  }
+} // namespace rectify::app
