@@ -1,5 +1,7 @@
 #include "system/parameters.h"
 
+#include "common/io.h"
+
 #include <cmath>
 #include <numbers>
 
@@ -57,6 +59,48 @@ namespace rectify::system
     const std::string t = "reed";
     p.stiffness_N_per_m = f.real(t, "stiffness_N_per_m", p.stiffness_N_per_m, positive);
     p.effective_mass_kg = f.real(t, "effective_mass_kg", p.effective_mass_kg, positive);
+    const std::string map = f.text(t, "properties_map", "");
+    const double      thickness =
+      f.real(t, "properties_thickness_m", 0.127e-3, positive);
+    const std::string mass_column =
+      f.text(t, "properties_mass", "eq321", {"eq321", "modal-in-fluid"}) == "eq321" ?
+        "effective_mass_eq321_kg" :
+        "modal_mass_in_fluid_kg";
+    if (!map.empty())
+      {
+        if (f.has(t, "stiffness_N_per_m") || f.has(t, "effective_mass_kg"))
+          throw InputError(f.where(t, "properties_map") +
+                           ": give either properties_map or stiffness_N_per_m and "
+                           "effective_mass_kg, not both");
+        const auto path = f.resolve(map);
+        const auto csv  = read_csv(path);
+        const auto ct   = csv.column_index("thickness_m", path.string());
+        const auto ck   = csv.column_index("stiffness_N_per_m", path.string());
+        const auto cm   = csv.column_index(mass_column, path.string());
+        for (std::size_t r = 1; r < csv.rows.size(); ++r)
+          if (!(csv.rows[r][ct] > csv.rows[r - 1][ct]))
+            throw InputError("reed map '" + path.string() + "' data row " + std::to_string(r + 1) +
+                             ": thickness_m = " + format_number(csv.rows[r][ct]) +
+                             " does not increase");
+        if (csv.rows.empty() || thickness < csv.rows.front()[ct] || thickness > csv.rows.back()[ct])
+          throw InputError(f.where(t, "properties_thickness_m") + " = " + format_number(thickness) +
+                           ": outside the reed map '" + path.string() + "'" +
+                           (csv.rows.empty() ? " (no rows)" :
+                                               " (" + format_number(csv.rows.front()[ct]) + " .. " +
+                                                 format_number(csv.rows.back()[ct]) + " m)"));
+        std::size_t i = 0;
+        while (i + 2 < csv.rows.size() && thickness > csv.rows[i + 1][ct])
+          ++i;
+        const auto  &a = csv.rows[i];
+        const auto  &b = csv.rows.size() > 1 ? csv.rows[i + 1] : csv.rows[i];
+        const double s = b[ct] > a[ct] ? (thickness - a[ct]) / (b[ct] - a[ct]) : 0.0;
+        p.stiffness_N_per_m = a[ck] + s * (b[ck] - a[ck]);
+        p.effective_mass_kg = a[cm] + s * (b[cm] - a[cm]);
+        if (!(p.stiffness_N_per_m > 0) || !(p.effective_mass_kg > 0))
+          throw InputError("reed map '" + path.string() + "': non-positive stiffness or mass at " +
+                           format_number(thickness) + " m");
+        p.source = path.string() + " at " + format_number(thickness) + " m (" + mass_column + ")";
+      }
     p.damping_ratio     = f.real(t, "damping_ratio", p.damping_ratio, non_negative);
     p.pressure_area_m2  = f.real(t, "pressure_area_m2", p.pressure_area_m2, positive);
     p.restitution       = f.real(t, "restitution", p.restitution, Bounds{0.0, 1.0, true, false});
@@ -198,7 +242,8 @@ namespace rectify::system
         {"effective_mass_kg", reed.effective_mass_kg},
         {"damping_ratio", reed.damping_ratio},
         {"pressure_area_m2", reed.pressure_area_m2},
-        {"restitution", reed.restitution}}},
+        {"restitution", reed.restitution},
+        {"source", reed.source}}},
       {"valves",
        {{"resistance_map", valves.resistance_map},
         {"interpolation", valves.interpolation},

@@ -46,6 +46,13 @@ namespace rectify::system
     double damping_ratio     = 0.1285;
     double pressure_area_m2  = 0.0123 * 0.0254 * 0.0254;
     double restitution       = 0.0; ///< seat impact: rebound speed / impact speed
+    /// Where stiffness and mass came from: "case", or the reed map (written
+    /// by `rectify map-stiffness`) read at a thickness.
+    std::string source = "case";
+    /// Reads [reed]. With `properties_map` set, k_r and m_r are interpolated
+    /// (linearly in thickness) from that map at `properties_thickness_m`,
+    /// the mass column chosen by `properties_mass`; giving them in the case
+    /// as well is an error.
     static ReedParameters from_case(const CaseFile &file);
   };
 

@@ -178,6 +178,30 @@ TEST(Model, DerivedConstantsReproduceTableA1)
   EXPECT_NEAR(c.C_ch, c.A_pi * 1.27e-3 / c.beta_eff, 1e-25);
 }
 
+TEST(Parameters, ReedPropertiesComeFromAReedMapByThickness)
+{
+  // The map `rectify map-stiffness` writes feeds the system model: k_r and
+  // m_r interpolated linearly in thickness.
+  const auto dir = std::filesystem::temp_directory_path() / "rectify_test_reedmap";
+  std::filesystem::create_directories(dir);
+  write_file_atomic(dir / "reed-map.csv",
+                    "# meta: {}\nthickness_m,stiffness_N_per_m,effective_mass_eq321_kg,modal_mass_in_fluid_kg\n"
+                    "1e-4,3000,3e-4,2e-5\n2e-4,24000,4e-4,3e-5\n");
+  const auto read = [&](const std::string &extra) {
+    return ReedParameters::from_case(CaseFile::parse(
+      "[reed]\nproperties_map = \"reed-map.csv\"\n" + extra, "r.toml", dir));
+  };
+  const auto p = read("properties_thickness_m = 1.5e-4\n");
+  EXPECT_NEAR(p.stiffness_N_per_m, 13500, 1e-9);
+  EXPECT_NEAR(p.effective_mass_kg, 3.5e-4, 1e-15);
+  EXPECT_NE(p.source.find("reed-map.csv"), std::string::npos);
+  EXPECT_NEAR(read("properties_thickness_m = 1e-4\nproperties_mass = \"modal-in-fluid\"\n").effective_mass_kg,
+              2e-5, 1e-15);
+  EXPECT_THROW(read("properties_thickness_m = 3e-4\n"), InputError);
+  EXPECT_THROW(read("properties_thickness_m = 1.5e-4\nstiffness_N_per_m = 6650\n"), InputError);
+  std::filesystem::remove_all(dir);
+}
+
 TEST(Model, AnalyticJacobianMatchesFiniteDifferences)
 {
   const auto   p = reference();
