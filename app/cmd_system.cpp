@@ -140,20 +140,22 @@ namespace rectify::app
       ensure_directory(out);
       r.series->write(out / "timeseries.csv");
       const auto ts = out / "timeseries.csv";
+      // Long runs: plot at most about 20 000 rows a curve (the CSV keeps them all).
+      const std::size_t n = std::max<std::size_t>(1, r.series->n_rows() / 20000 + 1);
       const bool plotted = render_plot(
         out / "timeseries",
         {{"Pressures (gauge, about the bias)", "time [s]", "pressure [psi]", false, false,
-          {{ts, "time_s", "chamber_pressure_Pa", "chamber p_ch", "lines", 1, 1 / psi},
-           {ts, "time_s", "outlet_pressure_Pa", "outlet p_o", "lines", 1, 1 / psi},
-           {ts, "time_s", "high_pressure_Pa", "high side p_h", "lines", 1, 1 / psi},
-           {ts, "time_s", "low_pressure_Pa", "low side p_l", "lines", 1, 1 / psi}}},
+          {{ts, "time_s", "chamber_pressure_Pa", "chamber p_ch", "lines", 1, 1 / psi, n},
+           {ts, "time_s", "outlet_pressure_Pa", "outlet p_o", "lines", 1, 1 / psi, n},
+           {ts, "time_s", "high_pressure_Pa", "high side p_h", "lines", 1, 1 / psi, n},
+           {ts, "time_s", "low_pressure_Pa", "low side p_l", "lines", 1, 1 / psi, n}}},
          {"Reed tip openings", "time [s]", "opening [um]", false, false,
-          {{ts, "time_s", "outlet_reed_m", "outlet reed x_ro", "lines", 1, 1e6},
-           {ts, "time_s", "inlet_reed_m", "inlet reed x_ri", "lines", 1, 1e6}}},
+          {{ts, "time_s", "outlet_reed_m", "outlet reed x_ro", "lines", 1, 1e6, n},
+           {ts, "time_s", "inlet_reed_m", "inlet reed x_ri", "lines", 1, 1e6, n}}},
          {"Piston and actuator", "time [s]", "piston [um], actuator velocity [mm/s]", false, false,
-          {{ts, "time_s", "piston_m", "piston x_p [um]", "lines", 1, 1e6},
+          {{ts, "time_s", "piston_m", "piston x_p [um]", "lines", 1, 1e6, n},
            {ts, "time_s", "actuator_velocity_m_per_s", "actuator velocity [mm/s]", "lines", 1,
-            1e3}}}});
+            1e3, n}}}});
 
       nlohmann::json summary = {
         {"command", "simulate"},

@@ -1,5 +1,6 @@
 #include "common/plot.h"
 
+#include <algorithm>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
@@ -52,7 +53,7 @@ namespace rectify
               const int   cx = column_number(r.data_file, r.x_column);
               const int   cy = column_number(r.data_file, r.y_column);
               s << (i ? ", \\\n     " : "") << quote(r.data_file.filename().string())
-                << " every ::1 using ($" << cx << "*" << r.x_scale << "):($" << cy << "*"
+                << " every " << std::max<std::size_t>(r.stride, 1) << "::1 using ($" << cx << "*" << r.x_scale << "):($" << cy << "*"
                 << r.y_scale << ") with " << r.style << " title " << quote(r.title);
             }
           s << "\n";
@@ -73,15 +74,18 @@ namespace rectify
     std::ostringstream script;
     script << "# gnuplot script written by rectify; run from this folder: gnuplot " << stem
            << ".gp\n"
+           << "if (!exists('png')) png = '" << stem << ".png'\n"
+           << "if (!exists('svg')) svg = '" << stem << ".svg'\n"
            << "set terminal pngcairo size 1000," << height << " noenhanced\n"
-           << "set output '" << stem << ".png.part'\n"
+           << "set output png\n"
            << body << "set terminal svg size 1000," << height << " noenhanced\n"
-           << "set output '" << stem << ".svg.part'\n"
+           << "set output svg\n"
            << body << "set output\n";
     write_file_atomic(dir / (stem + ".gp"), script.str());
 
-    const std::string command = "cd '" + dir.string() + "' && gnuplot '" + stem +
-                                ".gp' > '" + stem + ".gp.log' 2>&1";
+    const std::string command = "cd '" + dir.string() + "' && gnuplot -e \"png='" + stem +
+                                ".png.part'; svg='" + stem + ".svg.part'\" '" + stem + ".gp' > '" +
+                                stem + ".gp.log' 2>&1";
     if (std::system("command -v gnuplot > /dev/null 2>&1") != 0)
       return false;
     const bool ok = std::system(command.c_str()) == 0;

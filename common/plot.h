@@ -18,6 +18,7 @@ namespace rectify
     std::string           style   = "lines"; ///< gnuplot style: "lines", "linespoints", "points"
     double                x_scale = 1.0;     ///< plotted x = column * x_scale
     double                y_scale = 1.0;
+    std::size_t           stride  = 1; ///< plot every stride-th row (long time series)
   };
 
   struct PlotPanel
@@ -31,7 +32,8 @@ namespace rectify
   };
 
   /// Writes `<base>.gp` and renders `<base>.png` and `<base>.svg` (panels
-  /// stacked vertically). Returns false if gnuplot is not available or failed;
-  /// the script is written either way.
+  /// stacked vertically; each rendered under a temporary name and renamed).
+  /// Returns false if gnuplot is not available or failed; the script, which a
+  /// user can edit and run again (`gnuplot <base>.gp`), is written either way.
   bool render_plot(const std::filesystem::path &base, const std::vector<PlotPanel> &panels);
 } // namespace rectify
