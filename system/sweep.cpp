@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <functional>
 #include <mutex>
 #include <set>
 #include <sstream>
@@ -66,6 +67,15 @@ namespace rectify::system
 
   namespace
   {
+    /// A hash of a file's content, so that a checkpoint made with another
+    /// version of an input file is not resumed.
+    std::string file_hash(const std::string &path)
+    {
+      std::ifstream      in(path, std::ios::binary);
+      std::ostringstream content;
+      content << in.rdbuf();
+      return std::to_string(std::hash<std::string>{}(content.str()));
+    }
 
     bool parse_point(const std::string &line, SweepPoint &p)
     {
@@ -118,6 +128,10 @@ namespace rectify::system
     const auto wall_start = std::chrono::steady_clock::now();
     if (options.series.empty() || options.frequencies_Hz.empty())
       throw InputError("sweep: nothing to run (no series or no frequencies)");
+    for (std::size_t i = 0; i < options.series.size(); ++i)
+      for (std::size_t j = 0; j < i; ++j)
+        if (options.series[i].name == options.series[j].name)
+          throw InputError("sweep: series '" + options.series[i].name + "' given twice");
 
     // Everything that changes a result goes into the fingerprint.
     nlohmann::json fingerprint = {{"scenario", to_string(options.scenario)},
@@ -130,7 +144,8 @@ namespace rectify::system
                                   {"relative_tolerance", options.run.relative_tolerance},
                                   {"absolute_tolerance_factor", options.run.absolute_tolerance_factor},
                                   {"finite_difference_jacobian", options.run.finite_difference_jacobian},
-                                  {"parameters", parameters.to_json()}};
+                                  {"parameters", parameters.to_json()},
+                                  {"resistance_map_hash", file_hash(parameters.valves.resistance_map)}};
 
     // Resume: what a previous run with the same settings finished.
     Checkpoint                        checkpoint(out_dir, "sweep-partial", fingerprint,
