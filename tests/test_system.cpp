@@ -281,6 +281,26 @@ TEST(Model, ClosedChamberReachesTheStaticPressureAndHoldsIt)
   EXPECT_LT(r.volume_balance_rel_error, 1e-8);
 }
 
+TEST(Model, NoFlowStallPressureIsTheClosedChamberPressureAtFullStroke)
+{
+  // At stall no oil passes the outlet valve: the outlet side holds the
+  // pressure a closed chamber reaches at the peak force,
+  //   p = A_pi F / (k_eff C_ch + A_pi^2),  F = N q k_td I_max,
+  // which is the low-frequency stored pressure of Fig. 5.3 (4 A p-p, 2 A bias).
+  const auto p = reference();
+  for (auto valves : {ValveModel::ideal, ValveModel::dynamic})
+    {
+      Model        model = make_model(p, valves, Scenario::no_flow, 10, 4, 2);
+      auto         o     = options(p, 20);
+      o.settle           = true;
+      const auto   r     = run(model, o);
+      const auto  &c     = model.constants();
+      const double F     = c.force_per_ampere * 4.0;
+      const double stall = c.A_pi * F / (c.k_eff * c.C_ch + c.A_pi * c.A_pi);
+      EXPECT_NEAR(r.stored_pressure_Pa, stall, 5e-3 * stall) << to_string(valves);
+    }
+}
+
 TEST(Model, ReedsNeverPassTheirSeatsAndTheOutletShutsDuringRefill)
 {
   const auto p     = reference();
