@@ -20,6 +20,7 @@ int main(int argc, char **argv)
                ": reed valves of smart-material pumps, from flow and structure to the whole actuator"};
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string(RECTIFY_VERSION));
+  rectify::app::register_check_command(app);
   rectify::app::register_system_commands(app);
   rectify::app::register_map_commands(app);
   rectify::app::register_stiffness_commands(app);

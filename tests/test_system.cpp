@@ -539,6 +539,20 @@ TEST(Cli, BadCaseValuesExitWithTheKeyAndWriteNothing)
   EXPECT_NE(r.output.find("missing.toml"), std::string::npos) << r.output;
 }
 
+TEST(Cli, CheckValidatesTheReferenceCaseAndRejectsATypo)
+{
+  const auto dir = scratch("check");
+  auto       r   = rectify_cli("check --out " + (dir / "ok").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream in(dir / "ok" / "summary.json");
+  EXPECT_TRUE(nlohmann::json::parse(in)["valid"].get<bool>());
+  write_file_atomic(dir / "typo.toml", "[geometry]\nreed_thicknes_m = 1e-4\n");
+  r = rectify_cli("check --case " + (dir / "typo.toml").string() + " --out " + (dir / "bad").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("[geometry] reed_thicknes_m"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir / "bad"));
+}
+
 TEST(Cli, NonMonotoneMapIsRejectedWithFileAndRow)
 {
   const auto dir = scratch("map");
