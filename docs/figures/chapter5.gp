@@ -41,3 +41,24 @@ plot ref.'loaded/velocity/sweep.csv' every ::1 using 1:2 with linespoints pt 7 p
      '' every ::1 using 1:3 with linespoints pt 6 ps 0.5 title 'ideal valves', \
      '' every ::1 using 1:4 with linespoints pt 4 ps 0.5 title 'reed what-if: 3 k_r, 0.5 m_r', \
      0 with lines lc rgb 'black' notitle
+
+# Fig. 5.5: the last two cycles at 1420 Hz, each signal scaled by its largest magnitude there.
+f = 1420.0
+csv = ref.'loaded/trace-1420Hz/timeseries.csv'
+stats csv every ::1 using 1 nooutput
+t_end = STATS_max
+t0 = t_end - 2.0 / f
+stats csv every ::1 using ($1 >= t0 ? abs($17) : 0) nooutput name 'QPI'
+stats csv every ::1 using ($1 >= t0 ? abs($15) : 0) nooutput name 'QO'
+stats csv every ::1 using ($1 >= t0 ? abs($7) : 0) nooutput name 'XO'
+stats csv every ::1 using ($1 >= t0 ? log10($18) : 0) nooutput name 'RO'
+set output 'docs/figures/phase-1420Hz.png'
+set title 'Loaded, 1420 Hz: normalised signals over the last two cycles (cf. thesis Fig. 5.5)'
+set xlabel 'pumping cycle'
+set ylabel 'normalised'
+set key outside right top
+set xrange [0:2]
+plot csv every ::1 using (($1 - t0) * f):($1 >= t0 ? $17 / QPI_max : NaN) with lines lw 2 title 'piston flow A_pi dx_p/dt', \
+     '' every ::1 using (($1 - t0) * f):($1 >= t0 ? $15 / QO_max : NaN) with lines lw 1.5 title 'outlet valve flow', \
+     '' every ::1 using (($1 - t0) * f):($1 >= t0 ? $7 / XO_max : NaN) with lines lw 1.5 title 'outlet reed opening', \
+     '' every ::1 using (($1 - t0) * f):($1 >= t0 ? log10($18) / RO_max : NaN) with lines dt 2 title 'log10 R1 (scaled)'
