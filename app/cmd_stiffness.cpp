@@ -21,13 +21,13 @@ namespace rectify::app
 
     /// Beam (E) and plate (E') values for the reed under its load, and the
     /// thesis's added mass: the bounds the FE results are read against.
-    struct Bounds
+    struct ReedBounds
     {
       double k_beam, k_plate, f1_beam, f1_plate;
       double added_mass_kg; ///< eq. 3.20
     };
 
-    Bounds bounds(const StiffnessParameters &p)
+    ReedBounds bounds(const StiffnessParameters &p)
     {
       const auto  &g  = p.geometry;
       const double I  = analytic::second_moment(g.reed_width_m, g.reed_thickness_m);
@@ -61,12 +61,12 @@ namespace rectify::app
       double eq321_mass_kg, eq321_frequency_Hz; // the thesis's eq. 3.21 with its factor
     };
 
-    InFluid in_fluid(const StiffnessResult &r, const Bounds &b, double factor)
+    InFluid in_fluid(const StiffnessResult &r, const ReedBounds &b, double factor)
     {
       InFluid out{0, 0, 0, 0};
       if (!r.modes.empty() && r.modes[0].modal_mass_kg > 0)
         {
-          const double scale = (r.plate_mass_kg + b.added_mass_kg) / r.plate_mass_kg;
+          const double scale = analytic::added_mass_scale(r.plate_mass_kg, b.added_mass_kg);
           out.modal_mass_kg  = r.modes[0].modal_mass_kg * scale;
           out.frequency_Hz   = r.modes[0].frequency_Hz / std::sqrt(scale);
         }
@@ -127,7 +127,7 @@ namespace rectify::app
       SolveOptions so;
       so.vtu_file          = out / "reed.vtu";
       const auto    r      = solve_reed(p, so);
-      const Bounds  b      = bounds(p);
+      const ReedBounds b      = bounds(p);
       const InFluid fluid  = in_fluid(r, b, s.added_mass_factor);
 
       write_file_atomic(out / "shape.csv", shape_csv(r, p));
@@ -339,7 +339,7 @@ namespace rectify::app
           SolveOptions so;
           so.n_shape_points   = 2;
           const auto    r     = solve_reed(p, so);
-          const Bounds  b     = bounds(p);
+          const ReedBounds b     = bounds(p);
           const InFluid fluid = in_fluid(r, b, p.settings.added_mass_factor);
           const std::vector<double> row{t,
                                         r.k_N_per_m,

@@ -48,4 +48,8 @@ namespace rectify::stiffness::analytic
   {
     return std::numbers::pi / 4.0 * fluid_density * length * width * width;
   }
+  double added_mass_scale(double plate_mass, double added_mass)
+  {
+    return (plate_mass + added_mass) / plate_mass;
+  }
 } // namespace rectify::stiffness::analytic

@@ -27,4 +27,10 @@ namespace rectify::stiffness::analytic
   /// eq. 3.20: added mass of a cantilever plate in its first mode,
   /// (pi / 4) rho_f a b^2 with a the length and b the width.
   double added_mass_kg(double fluid_density, double length, double width);
+
+  /// The factor by which an added mass spread like the plate's own mass
+  /// (uniformly) multiplies every modal mass: (m_plate + m_added) / m_plate.
+  /// Frequencies divide by its square root. (tests/: the same as the FE modes
+  /// of a plate of density rho (1 + m_added / m_plate).)
+  double added_mass_scale(double plate_mass, double added_mass);
 } // namespace rectify::stiffness::analytic

@@ -4,7 +4,6 @@
 #include <array>
 #include <chrono>
 #include <cmath>
-#include <deque>
 
 #include "common/case_file.h"
 

@@ -7,7 +7,6 @@
 #include <fstream>
 #include <functional>
 #include <mutex>
-#include <set>
 #include <sstream>
 #include <thread>
 

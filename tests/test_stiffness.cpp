@@ -198,3 +198,22 @@ TEST(Stiffness, BadInputIsRejectedWithTheKey)
   expect_error("[stiffness]\nload = \"point\"\n", "'port-pressure'");
   expect_error("[stiffness]\nload_levels = [1e4, -1]\n", "entry 2 = -1");
 }
+
+TEST(Stiffness, AddedMassSpreadLikeThePlateScalesTheFirstMode)
+{
+  // The in-oil frequency reported by `rectify stiffness` scales the vacuum
+  // mode by the added-mass factor of eq. 3.20 spread uniformly; the FE modes
+  // of a plate made denser by that factor must agree.
+  auto         p = reference();
+  p.settings.n_modes = 1;
+  const auto   vacuum = solve_reed(p);
+  const double added  = analytic::added_mass_kg(p.fluid.density_kg_per_m3, p.geometry.reed_length_m,
+                                               p.geometry.reed_width_m);
+  const double scale  = analytic::added_mass_scale(vacuum.plate_mass_kg, added);
+  p.material.density_kg_per_m3 *= scale;
+  const auto heavy = solve_reed(p);
+  EXPECT_NEAR(heavy.modes[0].frequency_Hz, vacuum.modes[0].frequency_Hz / std::sqrt(scale),
+              1e-6 * heavy.modes[0].frequency_Hz);
+  EXPECT_NEAR(heavy.modes[0].modal_mass_kg, vacuum.modes[0].modal_mass_kg * scale,
+              1e-6 * heavy.modes[0].modal_mass_kg);
+}
