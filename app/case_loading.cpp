@@ -1,5 +1,6 @@
 #include "app/case_loading.h"
 
+#include "mesher/parameters.h"
 #include "stiffness_solver/parameters.h"
 #include "system/parameters.h"
 
@@ -10,6 +11,7 @@ namespace rectify::app
     CaseFile file = CaseFile::load(path);
     (void)system::SystemParameters::from_case(file);
     (void)stiffness::StiffnessParameters::from_case(file);
+    (void)mesher::MeshParameters::from_case(file);
     file.check_all_keys_known();
     return file;
   }

@@ -26,6 +26,9 @@ namespace rectify::app
   /// `stiffness`, `map-stiffness` (stiffness_solver/).
   void register_stiffness_commands(CLI::App &app);
 
+  /// `mesh` (mesher/).
+  void register_mesh_commands(CLI::App &app);
+
   /// `check`: validate a case file for every stage.
   void register_check_command(CLI::App &app);
 

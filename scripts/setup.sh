@@ -12,6 +12,8 @@ packages=(
   libtoml11-dev          # case files
   libcli11-dev           # the command line
   libdeal.ii-dev         # finite elements: reed elasticity (ARPACK, UMFPACK inside)
+  libtet1.5-dev          # TetGen as a library: the pocket's tetrahedra
+  libcgal-dev            # CGAL: planar meshing, surface checks (mesher)
   libgtest-dev           # tests
   gnuplot-nox            # plots (PNG and SVG)
   libopenblas0-pthread   # fast BLAS for the sparse direct solves of the FE stages

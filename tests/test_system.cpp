@@ -15,6 +15,7 @@
 
 #include "common/case_file.h"
 #include "common/io.h"
+#include "tests/cli_helpers.h"
 #include "system/integrator.h"
 #include "system/model.h"
 #include "system/reed.h"
@@ -22,6 +23,7 @@
 
 using namespace rectify;
 using namespace rectify::system;
+using namespace rectify::test_support;
 
 namespace
 {
@@ -472,49 +474,6 @@ TEST(Model, EntrainedAirSoftensTheOilAsEq326Says)
 }
 
 // ------------------------------------------------------------------ the tool
-namespace
-{
-  struct Command
-  {
-    int         exit_code;
-    std::string output;
-  };
-
-  Command rectify_cli(const std::string &args)
-  {
-    const auto  log = std::filesystem::temp_directory_path() /
-                     ("rectify_cli_" + std::to_string(::getpid()) + ".log"); // ctest runs tests in parallel
-    const std::string cmd = std::string(RECTIFY_BINARY) + " " + args + " > " + log.string() + " 2>&1";
-    const int   status = std::system(cmd.c_str());
-    std::ifstream in(log);
-    std::stringstream s;
-    s << in.rdbuf();
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, s.str()};
-  }
-
-  std::filesystem::path scratch(const std::string &name)
-  {
-    const auto dir = std::filesystem::temp_directory_path() / ("rectify_cli_" + name);
-    std::filesystem::remove_all(dir);
-    std::filesystem::create_directories(dir);
-    return dir;
-  }
-
-  std::string reference_text()
-  {
-    std::ifstream     in(reference_case_path());
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-  }
-
-  std::string replace(std::string text, const std::string &from, const std::string &to)
-  {
-    const auto pos = text.find(from);
-    EXPECT_NE(pos, std::string::npos) << from;
-    return text.replace(pos, from.size(), to);
-  }
-} // namespace
 
 TEST(Cli, BadCaseValuesExitWithTheKeyAndWriteNothing)
 {

@@ -1,0 +1,95 @@
+#include "mesher/parameters.h"
+
+#include <cmath>
+#include <cstdlib>
+
+namespace rectify::mesher
+{
+  MeshSettings MeshSettings::from_case(const CaseFile &f)
+  {
+    MeshSettings      s;
+    const std::string t   = "mesh";
+    const Bounds      pos = Bounds::positive();
+    s.shape = f.text(t, "shape", s.shape, {"beam", "table"});
+    if (f.has(t, "shape_table"))
+      s.shape_table = f.resolve(f.text(t, "shape_table", ""));
+    if (s.shape == "table" && s.shape_table.empty())
+      throw InputError(f.where(t, "shape") + " = \"table\" needs shape_table (a CSV with s_m, phi)");
+    s.size_reed_m       = f.real(t, "size_reed_m", s.size_reed_m, pos);
+    s.size_far_m        = f.real(t, "size_far_m", s.size_far_m, pos);
+    s.size_growth       = f.real(t, "size_growth", s.size_growth, Bounds::closed(0.05, 2.0));
+    s.station_spacing_m = f.real(t, "station_spacing_m", s.station_spacing_m, pos);
+    s.port_segments     = f.integer(t, "port_segments", s.port_segments, 0, 4096);
+    if (s.port_segments != 0 && s.port_segments < 8)
+      throw InputError(f.where(t, "port_segments") + " = " + std::to_string(s.port_segments) +
+                       ": at least 8 (or 0 for automatic)");
+    s.gap_layers       = f.integer(t, "gap_layers", s.gap_layers, 1, 64);
+    s.reed_layers      = f.integer(t, "reed_layers", s.reed_layers, 1, 64);
+    s.above_layers     = f.integer(t, "above_layers", s.above_layers, 1, 64);
+    s.slab_margin_m    = f.real(t, "slab_margin_m", s.slab_margin_m, pos);
+    s.blend_distance_m = f.real(t, "blend_distance_m", s.blend_distance_m, pos);
+    s.port_layer_m     = f.real(t, "port_layer_m", s.port_layer_m, pos);
+    s.gap_cutoff_ratio = f.real(t, "gap_cutoff_ratio", s.gap_cutoff_ratio, Bounds::open(0.0, 0.5));
+    s.min_angle_deg    = f.real(t, "min_angle_deg", s.min_angle_deg, Bounds::closed(5.0, 30.0));
+    s.tetgen_radius_edge_ratio =
+      f.real(t, "tetgen_radius_edge_ratio", s.tetgen_radius_edge_ratio, Bounds::closed(1.1, 10.0));
+    s.tetgen_min_dihedral_deg =
+      f.real(t, "tetgen_min_dihedral_deg", s.tetgen_min_dihedral_deg, Bounds::closed(0.0, 20.0));
+    s.tetgen_max_volume_m3 =
+      f.real(t, "tetgen_max_volume_m3", s.tetgen_max_volume_m3, Bounds::non_negative());
+    if (s.size_far_m < s.size_reed_m)
+      throw InputError(f.where(t, "size_far_m") + " = " + format_number(s.size_far_m) +
+                       ": must not be smaller than size_reed_m = " + format_number(s.size_reed_m));
+    return s;
+  }
+
+  MeshParameters MeshParameters::from_case(const CaseFile &file)
+  {
+    MeshParameters p{ValveGeometry::from_case(file), MeshSettings::from_case(file)};
+    const auto    &g = p.geometry;
+    const auto    &s = p.settings;
+    const double   size_limit = 0.25 * std::min(g.reed_width_m, g.port_diameter_m);
+    if (s.size_reed_m > size_limit)
+      throw InputError(file.where("mesh", "size_reed_m") + " = " + format_number(s.size_reed_m) +
+                       ": too coarse to resolve the port and the reed (at most a quarter of the"
+                       " port's diameter and the reed's width, " + format_number(size_limit) + " m)");
+    if (2 * s.slab_margin_m + g.reed_thickness_m >= g.pocket_height_m)
+      throw InputError(file.where("mesh", "slab_margin_m") + " = " + format_number(s.slab_margin_m) +
+                       ": the slab (reed thickness + 2 margins) does not fit under the pocket"
+                       " ceiling (pocket_height_m = " + format_number(g.pocket_height_m) + ")");
+    if (s.shape == "table")
+      (void)p.reed_shape(); // check the table now, before any meshing
+    return p;
+  }
+
+  ReedShape MeshParameters::reed_shape() const
+  {
+    if (settings.shape == "table")
+      return ReedShape::from_csv(settings.shape_table, geometry.reed_length_m);
+    return ReedShape::beam(geometry.reed_length_m, geometry.port_center_x_m);
+  }
+
+  double parse_length(const std::string &text, const std::string &what)
+  {
+    const char *begin = text.c_str();
+    char       *end   = nullptr;
+    const double value = std::strtod(begin, &end);
+    const std::string unit = std::string(end);
+    double scale = 0;
+    if (end == begin)
+      scale = 0;
+    else if (unit.empty() || unit == "m")
+      scale = 1;
+    else if (unit == "mm")
+      scale = 1e-3;
+    else if (unit == "um" || unit == "µm")
+      scale = 1e-6;
+    else if (unit == "nm")
+      scale = 1e-9;
+    if (scale == 0 || !std::isfinite(value) || !(value > 0))
+      throw InputError(what + " = \"" + text +
+                       "\": expected a positive length in metres, or with a unit (m, mm, um):"
+                       " 2e-6, 100um, 1.21mm");
+    return value * scale;
+  }
+} // namespace rectify::mesher

@@ -1,0 +1,52 @@
+// The mesher's settings: case table [mesh]. The geometry is [geometry]
+// (common/valve_geometry.h).
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+#include "common/case_file.h"
+#include "common/valve_geometry.h"
+#include "mesher/shape.h"
+
+namespace rectify::mesher
+{
+  struct MeshSettings
+  {
+    std::string           shape = "beam"; ///< "beam" (reference) or "table"
+    std::filesystem::path shape_table;    ///< CSV with s_m, phi (shape = "table")
+
+    double size_reed_m      = 0.15e-3; ///< in-plane cell size over the reed and the port
+    double size_far_m       = 0.6e-3;  ///< in-plane cell size far from the reed
+    double size_growth      = 0.3;     ///< size grows by this times the distance from the reed
+    double station_spacing_m = 0.1e-3;  ///< the reed's shape is sampled at least this finely
+    long   port_segments    = 0;       ///< sides of the port polygon (0: from size_reed_m)
+    long   gap_layers       = 3;       ///< element layers across the gap under the reed
+    long   reed_layers      = 2;       ///< layers beside the reed's thickness
+    long   above_layers     = 2;       ///< layers between the reed's top and the slab's top
+    double slab_margin_m    = 0.15e-3; ///< slab top above the reed's top
+    double blend_distance_m = 1.0e-3;  ///< layers relax to uniform over this distance from the reed
+    double port_layer_m     = 0.3e-3;  ///< layer thickness in the port
+    double gap_cutoff_ratio = 0.05;    ///< gap thinner than this times the opening: closed
+    double min_angle_deg    = 25.0;    ///< smallest angle of the floor and wall triangles
+    double tetgen_radius_edge_ratio = 1.5; ///< TetGen -q: radius-edge ratio bound
+    double tetgen_min_dihedral_deg  = 12.0; ///< TetGen -q: dihedral angle bound
+    double tetgen_max_volume_m3     = 0.0;  ///< TetGen -a (0: none)
+
+    static MeshSettings from_case(const CaseFile &file);
+  };
+
+  /// Everything the mesher needs from a case file.
+  struct MeshParameters
+  {
+    ValveGeometry geometry;
+    MeshSettings  settings;
+    static MeshParameters from_case(const CaseFile &file);
+    /// The reed shape the settings name (reads the table if any).
+    ReedShape reed_shape() const;
+  };
+
+  /// "100um", "1.21mm", "2e-6", "2e-6m" -> metres. Throws InputError naming
+  /// `what` for anything else, a non-finite or a non-positive value.
+  double parse_length(const std::string &text, const std::string &what);
+} // namespace rectify::mesher

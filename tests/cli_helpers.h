@@ -1,0 +1,58 @@
+// Helpers for tests that run the `rectify` tool and edit case files.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "common/case_file.h"
+
+namespace rectify::test_support
+{
+  struct Command
+  {
+    int         exit_code;
+    std::string output;
+  };
+
+  inline Command rectify_cli(const std::string &args)
+  {
+    const auto  log = std::filesystem::temp_directory_path() /
+                     ("rectify_cli_" + std::to_string(::getpid()) + ".log"); // ctest runs tests in parallel
+    const std::string cmd = std::string(RECTIFY_BINARY) + " " + args + " > " + log.string() + " 2>&1";
+    const int   status = std::system(cmd.c_str());
+    std::ifstream in(log);
+    std::stringstream s;
+    s << in.rdbuf();
+    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, s.str()};
+  }
+
+  inline std::filesystem::path scratch(const std::string &name)
+  {
+    const auto dir = std::filesystem::temp_directory_path() / ("rectify_cli_" + name);
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    return dir;
+  }
+
+  inline std::string reference_text()
+  {
+    std::ifstream     in(reference_case_path());
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+  }
+
+  inline std::string replace(std::string text, const std::string &from, const std::string &to)
+  {
+    const auto pos = text.find(from);
+    EXPECT_NE(pos, std::string::npos) << from;
+    return text.replace(pos, from.size(), to);
+  }
+} // namespace rectify::test_support

@@ -1,0 +1,374 @@
+// The mesher (mesher/): volumes and areas against the geometry's analytic
+// values, boundary ids, conformity, quality over the openings, dimension
+// changes, the reed shape, bad input.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+
+#include "common/case_file.h"
+#include "common/io.h"
+#include "mesher/bulk_tetgen.h"
+#include "mesher/mesher.h"
+#include "mesher/writers.h"
+#include "tests/cli_helpers.h"
+
+using namespace rectify;
+using namespace rectify::mesher;
+using namespace rectify::test_support;
+
+namespace
+{
+  MeshParameters reference() { return MeshParameters::from_case(CaseFile::load(reference_case_path())); }
+
+  /// Boundary faces recomputed from the cells alone: faces of exactly one cell.
+  std::map<std::array<std::uint32_t, 3>, int> faces_of_one_cell(const TetMesh &m)
+  {
+    std::map<std::array<std::uint32_t, 3>, int> count;
+    for (const auto &c : m.cells)
+      for (int k = 0; k < 4; ++k)
+        {
+          std::array<std::uint32_t, 3> f;
+          int                          n = 0;
+          for (int j = 0; j < 4; ++j)
+            if (j != k)
+              f[n++] = c[j];
+          std::sort(f.begin(), f.end());
+          ++count[f];
+        }
+    std::erase_if(count, [](const auto &kv) { return kv.second != 1; });
+    return count;
+  }
+} // namespace
+
+// The analytic fluid volume: pocket + port - reed - the closed part of the gap.
+TEST(Mesher, VolumeEqualsTheAnalyticFluidVolume)
+{
+  const auto p = reference();
+  for (double opening : {2e-6, 10e-6, 100e-6, 1210e-6})
+    {
+      const auto  r = mesh_valve(p, opening);
+      const auto &i = r.info;
+      EXPECT_NEAR(i.fluid_volume_m3 / i.exact_fluid_volume_m3, 1.0, 1e-6) << opening;
+      // the layered gap reproduces the sampled reed exactly
+      EXPECT_NEAR(i.gap_volume_m3 / i.exact_gap_volume_m3, 1.0, 1e-9) << opening;
+      // an independent volume: the closed boundary surface (CGAL)
+      EXPECT_TRUE(i.surface.closed && i.surface.outward && !i.surface.self_intersecting) << opening;
+      EXPECT_NEAR(i.surface.volume_m3 / i.fluid_volume_m3, 1.0, 1e-9) << opening;
+      EXPECT_EQ(i.gap_layers, p.settings.gap_layers);
+      // the gap is open from the cut-off on, and its thinnest part has
+      // gap_layers layers: check the cells under the reed at the cut-off station
+      EXPECT_NEAR(i.cutoff_thickness_m, opening * p.settings.gap_cutoff_ratio, 0.3 * opening * p.settings.gap_cutoff_ratio);
+    }
+}
+
+// By hand: the reference pocket, port, reed; independent of the mesher's formulas.
+TEST(Mesher, ExactVolumeIsTheReferenceGeometrysVolume)
+{
+  const auto   p       = reference();
+  const double opening = 1e-6; // closed part negligible: W * opening * int phi < 1e-13 m^3
+  const auto   r       = mesh_valve(p, opening);
+  const double by_hand = 9e-3 * 8e-3 * 2e-3 + M_PI * std::pow(3.175e-3 / 2, 2) * 3e-3 -
+                         6.1e-3 * 5.08e-3 * 0.127e-3;
+  EXPECT_NEAR(r.info.exact_fluid_volume_m3 / by_hand, 1.0, 1e-6);
+  EXPECT_NEAR(r.info.fluid_volume_m3 / by_hand, 1.0, 1e-6);
+}
+
+TEST(Mesher, EveryBoundaryFaceHasOneIdAndInletOutletAreasMatch)
+{
+  const auto p = reference();
+  for (double opening : {2e-6, 300e-6})
+    {
+      const auto  r = mesh_valve(p, opening);
+      const auto &m = r.mesh;
+      auto        expected = faces_of_one_cell(m);
+      ASSERT_EQ(expected.size(), m.boundary.size()) << opening;
+      for (const auto &f : m.boundary)
+        {
+          auto key = f.vertices;
+          std::sort(key.begin(), key.end());
+          EXPECT_EQ(expected.erase(key), 1u) << "a boundary face listed twice or not a boundary face";
+          EXPECT_TRUE(f.id >= inlet && f.id <= reed) << int(f.id);
+        }
+      const auto &i = r.info;
+      EXPECT_NEAR(i.boundary_area_m2[inlet] / (M_PI * std::pow(0.5 * 3.175e-3, 2)), 1.0, 1e-6);
+      EXPECT_NEAR(i.boundary_area_m2[outlet] / (8e-3 * 2e-3), 1.0, 1e-6);
+      for (int id = inlet; id <= reed; ++id)
+        EXPECT_GT(i.boundary_faces[id], 0u) << id;
+      // Inlet faces lie on z = -3 mm, outlet faces on x = 9 mm; reed faces
+      // within the reed's box, walls never on the inlet or outlet planes.
+      for (const auto &f : m.boundary)
+        for (auto v : f.vertices)
+          {
+            const auto &x = m.vertices[v];
+            if (f.id == inlet)
+              {
+                EXPECT_NEAR(x[2], -3e-3, 1e-15);
+              }
+            if (f.id == outlet)
+              {
+                EXPECT_NEAR(x[0], 9e-3, 1e-15);
+              }
+            if (f.id == reed)
+              {
+                EXPECT_LE(x[0], 6.1e-3 + 1e-15);
+                EXPECT_LE(std::abs(x[1]), 2.54e-3 + 1e-15);
+                EXPECT_LE(x[2], opening + 0.127e-3 + 1e-12);
+              }
+          }
+      // Divergence theorem with the ids' faces: sum of (x . n) dA / 3 = volume.
+      double flux = 0;
+      for (const auto &f : m.boundary)
+        {
+          const auto &a = m.vertices[f.vertices[0]], &b = m.vertices[f.vertices[1]],
+                     &c = m.vertices[f.vertices[2]];
+          flux += signed_volume({0, 0, 0}, a, b, c);
+        }
+      EXPECT_NEAR(flux / i.fluid_volume_m3, 1.0, 1e-9);
+    }
+}
+
+// Quality over a sweep of openings: no inverted cell; TetGen's cells
+// isotropic; every layered cell exactly a third of a vertical prism over a
+// good floor triangle, no thinner than the thinnest layer the layering
+// prescribes (so no sliver: its flatness is the layer's, nothing more).
+TEST(Mesher, QualityBoundsHoldOverTheOpenings)
+{
+  const auto  p = reference();
+  const auto &s = p.settings;
+  for (double opening : {2e-6, 5e-6, 20e-6, 60e-6, 200e-6, 600e-6, 1210e-6})
+    {
+      const auto  r = mesh_valve(p, opening);
+      const auto &m = r.mesh;
+      const auto &q = r.info.quality;
+      EXPECT_GE(q.region[bulk].min_dihedral_deg, 4.0) << opening;
+      EXPECT_LE(q.region[bulk].max_aspect_ratio, 15.0) << opening;
+      EXPECT_GE(q.min_floor_angle_deg, 14.0) << opening;
+      const double h_cut = r.info.cutoff_thickness_m, t = p.geometry.reed_thickness_m;
+      const double thinnest =
+        std::min({h_cut / s.gap_layers, (t - h_cut) / s.reed_layers, s.slab_margin_m / s.above_layers,
+                  (t + s.slab_margin_m) / (s.gap_layers + s.reed_layers + s.above_layers),
+                  p.geometry.port_length_m / std::ceil(p.geometry.port_length_m / s.port_layer_m)});
+      std::size_t n_layered = 0;
+      for (std::size_t c = 0; c < m.cells.size(); ++c)
+        {
+          const double volume = cell_volume(m, c);
+          ASSERT_GT(volume, 0.0) << "inverted cell " << c << " at " << opening;
+          if (m.region[c] == bulk)
+            continue;
+          ++n_layered;
+          // the vertical edge and the floor triangle under the cell
+          const auto &v = m.cells[c];
+          int         a = -1, b = -1;
+          for (int i = 0; i < 4; ++i)
+            for (int j = i + 1; j < 4; ++j)
+              if (m.vertices[v[i]][0] == m.vertices[v[j]][0] && m.vertices[v[i]][1] == m.vertices[v[j]][1])
+                a = i, b = j;
+          ASSERT_GE(a, 0) << "a layered cell without a vertical edge";
+          std::vector<std::array<double, 2>> base;
+          for (int i = 0; i < 4; ++i)
+            if (i != b)
+              base.push_back({m.vertices[v[i]][0], m.vertices[v[i]][1]});
+          const double ux = base[1][0] - base[0][0], uy = base[1][1] - base[0][1];
+          const double wx = base[2][0] - base[0][0], wy = base[2][1] - base[0][1];
+          const double area = 0.5 * std::abs(ux * wy - uy * wx);
+          const double dz   = std::abs(m.vertices[v[a]][2] - m.vertices[v[b]][2]);
+          ASSERT_NEAR(volume / (area * dz / 3), 1.0, 1e-9) << "not a third of a vertical prism";
+          ASSERT_GE(dz, thinnest * (1 - 1e-9)) << "a layer thinner than prescribed at " << opening;
+        }
+      EXPECT_GT(n_layered, 0u);
+    }
+}
+
+TEST(Mesher, ChangingADimensionChangesTheVolumeAsTheGeometrySays)
+{
+  const double opening = 50e-6;
+  const auto   base    = reference();
+  const auto   v0      = mesh_valve(base, opening).info.fluid_volume_m3;
+
+  auto thick                        = base;
+  thick.geometry.reed_thickness_m   = 0.2e-3;
+  const auto v1                     = mesh_valve(thick, opening).info.fluid_volume_m3;
+  EXPECT_NEAR((v1 - v0) / (-6.1e-3 * 5.08e-3 * (0.2e-3 - 0.127e-3)), 1.0, 1e-6);
+
+  auto narrow                       = base;
+  narrow.geometry.port_diameter_m   = 2.5e-3;
+  const auto v2                     = mesh_valve(narrow, opening).info.fluid_volume_m3;
+  EXPECT_NEAR((v2 - v0) / (M_PI * (std::pow(1.25e-3, 2) - std::pow(1.5875e-3, 2)) * 3e-3), 1.0, 1e-5);
+}
+
+TEST(Mesher, ReedShapes)
+{
+  const auto beam = ReedShape::beam(6.1e-3, 3.3e-3);
+  EXPECT_DOUBLE_EQ(beam(0), 0);
+  EXPECT_NEAR(beam(6.1e-3), 1.0, 1e-15);
+  EXPECT_NEAR(beam(3.3e-3 - 1e-12), beam(3.3e-3 + 1e-12), 1e-9); // continuous at the load
+  // sampled integral -> the beam's exact integral (Simpson on the two polynomials)
+  const double a = 3.3e-3, L = 6.1e-3;
+  const double exact = (a * a * a * a - a * a * a * a / 4) / (a * a * (3 * L - a)) +
+                       (1.5 * (L * L - a * a) - a * (L - a)) / (3 * L - a);
+  double previous_error = 1;
+  for (double spacing : {0.4e-3, 0.2e-3, 0.1e-3})
+    {
+      const SampledShape s(beam, spacing);
+      const double       error = std::abs(s.integral_to_station(s.stations().size() - 1) - exact) / exact;
+      EXPECT_LT(error, previous_error / 3.5) << spacing; // second order
+      previous_error = error;
+      EXPECT_LT(s.max_sampling_error(), 0.2 * spacing * spacing / (1e-3 * 1e-3));
+    }
+  // a table is scaled to phi(L) = 1
+  const auto table = ReedShape::table({0, 3e-3, 6.1e-3}, {0, 0.5e-6, 2e-6}, 6.1e-3, "t.csv");
+  EXPECT_DOUBLE_EQ(table(6.1e-3), 1.0);
+  EXPECT_DOUBLE_EQ(table(3e-3), 0.25);
+}
+
+TEST(Mesher, MeshesTheStiffnessSolversShapeTable)
+{
+  const auto dir = scratch("mesher_shape");
+  std::string csv = "# a shape.csv as rectify stiffness writes it\ns_m,phi,phi_centerline\n";
+  for (int k = 0; k <= 60; ++k)
+    {
+      const double s = 6.1e-3 * k / 60;
+      csv += std::to_string(s) + "," + std::to_string(std::pow(s / 6.1e-3, 1.8)) + ",0\n";
+    }
+  write_file_atomic(dir / "shape.csv", csv);
+  write_file_atomic(dir / "case.toml", "[mesh]\nshape = \"table\"\nshape_table = \"shape.csv\"\n");
+  const auto p = MeshParameters::from_case(CaseFile::load(dir / "case.toml"));
+  const auto r = mesh_valve(p, 30e-6);
+  EXPECT_EQ(r.info.shape, "table");
+  EXPECT_NEAR(r.info.fluid_volume_m3 / r.info.exact_fluid_volume_m3, 1.0, 1e-9);
+  // the open gap's volume is W * opening * int phi from the cut-off to L:
+  // phi = (s/L)^1.8 integrates to L (1 - u^2.8) / 2.8, u = cut-off / L
+  // (the table's linear interpolation of 61 points aside)
+  const double u = r.info.closed_to_m / 6.1e-3;
+  EXPECT_NEAR(r.info.gap_volume_m3 / (5.08e-3 * 30e-6 * 6.1e-3 * (1 - std::pow(u, 2.8)) / 2.8), 1.0, 2e-3);
+}
+
+TEST(Mesher, BadInputNamesTheKeyBeforeMeshing)
+{
+  auto expect_error = [](const std::string &text, const std::string &fragment) {
+    try
+      {
+        MeshParameters::from_case(CaseFile::parse(text, "m.toml"));
+        ADD_FAILURE() << "accepted: " << text;
+      }
+    catch (const InputError &e)
+      {
+        EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+      }
+  };
+  expect_error("[geometry]\nport_center_x_m = 5.5e-3\n", "does not cover its port");
+  expect_error("[geometry]\nport_center_x_m = 8.5e-3\nreed_length_m = 8.9e-3\n", "outside the seat");
+  expect_error("[geometry]\npocket_width_m = 3e-3\n", "outside the seat");
+  expect_error("[geometry]\npocket_width_m = 4e-3\n", "the reed must fit inside the pocket");
+  expect_error("[geometry]\nreed_length_m = 9.5e-3\n", "reed_length_m");
+  expect_error("[geometry]\npocket_height_m = 0\n", "[geometry] pocket_height_m");
+  expect_error("[geometry]\nport_length_m = -3e-3\n", "[geometry] port_length_m");
+  expect_error("[geometry]\noutlet_face = \"floor\"\n", "outlet_face");
+  expect_error("[mesh]\nsize_reed_m = -1e-4\n", "[mesh] size_reed_m");
+  expect_error("[mesh]\nsize_reed_m = 0.9e-3\nsize_far_m = 1e-3\n", "too coarse");
+  expect_error("[mesh]\ngap_layers = 0\n", "[mesh] gap_layers");
+  expect_error("[mesh]\ngap_cutoff_ratio = 0\n", "[mesh] gap_cutoff_ratio");
+  expect_error("[mesh]\nshape = \"table\"\n", "shape_table");
+  expect_error("[mesh]\nshape = \"parabola\"\n", "[mesh] shape");
+
+  const auto dir = scratch("mesher_bad_table");
+  auto table_error = [&](const std::string &csv, const std::string &fragment) {
+    write_file_atomic(dir / "shape.csv", csv);
+    try
+      {
+        (void)ReedShape::from_csv(dir / "shape.csv", 6.1e-3);
+        ADD_FAILURE() << "accepted: " << csv;
+      }
+    catch (const InputError &e)
+      {
+        EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("shape.csv"), std::string::npos) << e.what();
+      }
+  };
+  table_error("s_m,phi\n0,0\n0.003,0.6\n0.0045,0.5\n0.0061,1\n", "not monotone");
+  table_error("s_m,phi\n0,0\n0.003,0.5\n0.005,1\n", "end at the reed's tip");
+  table_error("s_m,phi\n0.001,0\n0.0061,1\n", "start at the clamp");
+  table_error("s_m,phi\n0,0.1\n0.0061,1\n", "zero at the clamp");
+  table_error("s_m,phi\n0,0\n0.003,0.5\n0.003,0.6\n0.0061,1\n", "increase strictly");
+  table_error("s_m,phi\n0,0\n0.003,nan\n0.0061,1\n", "shape.csv");
+  table_error("s,phi\n0,0\n0.0061,1\n", "s_m");
+
+  const auto p = reference();
+  EXPECT_THROW(mesh_valve(p, 1.9e-3), InputError); // through the ceiling
+  EXPECT_THROW(mesh_valve(p, 0.0), InputError);
+  EXPECT_THROW(mesh_valve(p, std::nan("")), InputError);
+  EXPECT_THROW(parse_length("12 parsecs", "--opening"), InputError);
+  EXPECT_DOUBLE_EQ(parse_length("100um", "x"), 100e-6);
+  EXPECT_DOUBLE_EQ(parse_length("1.21mm", "x"), 1.21e-3);
+  EXPECT_DOUBLE_EQ(parse_length("2e-6", "x"), 2e-6);
+}
+
+TEST(Mesher, TetgenFailureIsReportedWithItsCause)
+{
+  auto expect_failure = [](const std::vector<Point3>                        &points,
+                           const std::vector<std::array<std::uint32_t, 3>> &triangles,
+                           const std::string                                &cause) {
+    try
+      {
+        (void)tetrahedralize_closed_surface(points, triangles, {});
+        ADD_FAILURE() << "TetGen's input accepted";
+      }
+    catch (const MeshError &e)
+      {
+        EXPECT_NE(std::string(e.what()).find("TetGen"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find(cause), std::string::npos) << e.what();
+      }
+  };
+  // Two triangles crossing each other, not a closed surface.
+  expect_failure({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0.2, 0.2, -1}, {0.2, 0.2, 1}, {1, 1, 1}},
+                 {{0, 1, 2}, {3, 4, 5}}, "not a closed");
+  // Two closed tetrahedra that interpenetrate.
+  const std::vector<std::array<std::uint32_t, 3>> tet{{0, 1, 2}, {0, 1, 3}, {1, 2, 3}, {0, 2, 3}};
+  auto two = tet;
+  for (auto f : tet)
+    two.push_back({f[0] + 4, f[1] + 4, f[2] + 4});
+  expect_failure({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1},
+                  {0.2, 0.2, 0.2}, {1.2, 0.2, 0.2}, {0.2, 1.2, 0.2}, {0.2, 0.2, 1.2}},
+                 two, "intersects itself");
+  // A closed surface TetGen meshes: the unit tetrahedron.
+  const auto ok = tetrahedralize_closed_surface({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}}, tet, {});
+  EXPECT_GE(ok.cells.size(), 1u);
+}
+
+TEST(Mesher, CommandWritesVtuMshAndSummary)
+{
+  const auto dir = scratch("mesher_cli");
+  auto       r   = rectify_cli("mesh --opening 40um --out " + (dir / "m").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream in(dir / "m" / "summary.json");
+  const auto    s = nlohmann::json::parse(in);
+  for (const char *key : {"n_cells", "n_vertices", "min_dihedral_deg", "max_aspect_ratio",
+                          "fluid_volume_m3", "exact_fluid_volume_m3", "gap_layers"})
+    EXPECT_TRUE(s.contains(key)) << key;
+  EXPECT_NEAR(s["fluid_volume_m3"].get<double>() / s["exact_fluid_volume_m3"].get<double>(), 1, 1e-6);
+  // Gmsh file: physical names and as many elements as faces + cells
+  std::ifstream     msh(dir / "m" / "mesh.msh");
+  std::stringstream text;
+  text << msh.rdbuf();
+  const std::string t = text.str();
+  EXPECT_NE(t.find("$MeshFormat\n2.2 0 8"), std::string::npos);
+  for (const char *name : {"2 1 \"inlet\"", "2 2 \"outlet\"", "2 3 \"walls\"", "2 4 \"reed\"", "3 10 \"fluid\""})
+    EXPECT_NE(t.find(name), std::string::npos) << name;
+  const auto elements = t.find("$Elements\n");
+  ASSERT_NE(elements, std::string::npos);
+  const std::size_t n_elements = std::stoul(t.substr(elements + 10));
+  EXPECT_EQ(n_elements, s["n_cells"].get<std::size_t>() + s["surface_check"]["n_faces"].get<std::size_t>());
+  EXPECT_TRUE(std::filesystem::exists(dir / "m" / "mesh.vtu"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "m" / "boundary.vtu"));
+
+  // bad input: exit 2, the key named, no output folder
+  r = rectify_cli("mesh --opening 1.95mm --out " + (dir / "bad").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("ceiling"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir / "bad"));
+}
