@@ -5,6 +5,7 @@
 
 #include "app/commands.h"
 #include "common/io.h"
+#include "mesher/parameters.h"
 #include "stiffness_solver/parameters.h"
 #include "system/model.h"
 
@@ -23,6 +24,7 @@ namespace rectify::app
       const CaseFile file = load_case(o.case_path); // every stage, unknown keys
       const auto     sys  = system::SystemParameters::from_case(file);
       const auto     st   = stiffness::StiffnessParameters::from_case(file);
+      const auto     mesh = mesher::MeshParameters::from_case(file);
       const auto     map  = maps::ResistanceMap::read(sys.valves.resistance_map,
                                                       maps::parse_interpolation(sys.valves.interpolation));
       const nlohmann::json summary = {
@@ -41,7 +43,30 @@ namespace rectify::app
           {"reed_thickness_m", st.geometry.reed_thickness_m},
           {"port_diameter_m", st.geometry.port_diameter_m},
           {"port_center_x_m", st.geometry.port_center_x_m},
-          {"port_length_m", st.geometry.port_length_m}}},
+          {"port_length_m", st.geometry.port_length_m},
+          {"pocket_length_m", st.geometry.pocket_length_m},
+          {"pocket_width_m", st.geometry.pocket_width_m},
+          {"pocket_height_m", st.geometry.pocket_height_m},
+          {"outlet_face", st.geometry.outlet_face}}},
+        {"mesh",
+         {{"shape", mesh.settings.shape},
+          {"shape_table", mesh.settings.shape_table.string()},
+          {"size_reed_m", mesh.settings.size_reed_m},
+          {"size_far_m", mesh.settings.size_far_m},
+          {"size_growth", mesh.settings.size_growth},
+          {"station_spacing_m", mesh.settings.station_spacing_m},
+          {"port_segments", mesh.settings.port_segments},
+          {"gap_layers", mesh.settings.gap_layers},
+          {"reed_layers", mesh.settings.reed_layers},
+          {"above_layers", mesh.settings.above_layers},
+          {"slab_margin_m", mesh.settings.slab_margin_m},
+          {"blend_distance_m", mesh.settings.blend_distance_m},
+          {"port_layer_m", mesh.settings.port_layer_m},
+          {"gap_cutoff_ratio", mesh.settings.gap_cutoff_ratio},
+          {"min_angle_deg", mesh.settings.min_angle_deg},
+          {"tetgen_radius_edge_ratio", mesh.settings.tetgen_radius_edge_ratio},
+          {"tetgen_min_dihedral_deg", mesh.settings.tetgen_min_dihedral_deg},
+          {"tetgen_max_volume_m3", mesh.settings.tetgen_max_volume_m3}}},
         {"reed_material",
          {{"youngs_modulus_Pa", st.material.youngs_modulus_Pa},
           {"poisson_ratio", st.material.poisson_ratio},

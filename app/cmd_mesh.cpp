@@ -3,6 +3,7 @@
 
 #include "app/commands.h"
 #include "common/io.h"
+#include "common/plot.h"
 #include "mesher/mesher.h"
 #include "mesher/writers.h"
 
@@ -17,6 +18,43 @@ namespace rectify::app
       std::string opening;
       bool        no_files = false;
     };
+
+    /// section.png: the mesh cut by the plane y = 0 (just off it, so that no
+    /// vertex lies on the plane): the whole domain, the layered slab, the gap.
+    void plot_section(const mesher::TetMesh &mesh, const mesher::MeshParameters &p, double opening,
+                      const std::filesystem::path &out)
+    {
+      const auto   segments = mesher::section(mesh, 1.234567e-3 * p.geometry.reed_width_m);
+      const double slab_top = opening + p.geometry.reed_thickness_m + p.settings.slab_margin_m;
+      const auto   write = [&](const std::string &name, double x_max, double z_min, double z_max) {
+        // Blocks separated by blank lines, each one segment; its first point is
+        // written twice (the plot skips the first row of a block: the header).
+        std::string text = "x_mm,z_mm\n";
+        char        buf[128];
+        for (const auto &s : segments)
+          if (std::max(s.x0, s.x1) <= x_max && std::min(s.z0, s.z1) >= z_min && std::max(s.z0, s.z1) <= z_max)
+            {
+              std::snprintf(buf, sizeof(buf), "%.9g,%.9g\n%.9g,%.9g\n%.9g,%.9g\n\n", s.x0 * 1e3, s.z0 * 1e3,
+                            s.x0 * 1e3, s.z0 * 1e3, s.x1 * 1e3, s.z1 * 1e3);
+              text += buf;
+            }
+        write_file_atomic(out / name, text);
+      };
+      const double big = 1e9;
+      write("section_all.csv", big, -big, big);
+      write("section_slab.csv", p.geometry.reed_length_m + 0.5e-3, -1e-12, slab_top * (1 + 1e-9));
+      write("section_gap.csv", p.geometry.reed_length_m + 0.2e-3, -1e-12, opening * (1 + 1e-9));
+      auto series = [&](const std::string &file, double z_scale) {
+        return PlotSeries{out / file, "x_mm", "z_mm", "cells cut at y = 0", "lines", 1.0, z_scale};
+      };
+      render_plot(out / "section",
+                  {{"mesh section at y = 0: port, layered slab, TetGen's pocket", "x [mm]", "z [mm]", false,
+                    false, {series("section_all.csv", 1.0)}},
+                   {"the layered slab: gap, reed (empty), above", "x [mm]", "z [mm]", false, false,
+                    {series("section_slab.csv", 1.0)}},
+                   {"the gap under the reed", "x [mm]", "z [um]", false, false,
+                    {series("section_gap.csv", 1e3)}}});
+    }
 
     void mesh_command(const MeshOptions &o)
     {
@@ -47,9 +85,11 @@ namespace rectify::app
           mesher::write_vtu(out / "mesh.vtu", result.mesh);
           mesher::write_boundary_vtu(out / "boundary.vtu", result.mesh);
           mesher::write_msh(out / "mesh.msh", result.mesh);
-          summary["files"] = {"mesh.vtu", "boundary.vtu", "mesh.msh", "quality.txt"};
+          summary["files"] = {"mesh.vtu", "boundary.vtu", "mesh.msh", "quality.txt", "section.png"};
         }
       write_file_atomic(out / "quality.txt", mesher::quality_report(info.quality));
+      if (!o.no_files)
+        plot_section(result.mesh, p, opening, out);
       write_json(out / "summary.json", summary);
       std::printf("opening %s m: %zu cells, %zu vertices (gap %zu, bulk %zu); volume %.9e m^3 "
                   "(exact %.9e, rel. error %.1e); min dihedral %.3g deg (bulk %.3g); %.2f s\n",

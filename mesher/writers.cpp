@@ -1,5 +1,7 @@
 #include "mesher/writers.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <string>
 
@@ -65,6 +67,42 @@ namespace rectify::mesher
                               [&](std::size_t f, int k) { return m.boundary[f].vertices[k]; },
                               "boundary_id",
                               [&](std::size_t f) { return static_cast<int>(m.boundary[f].id); }));
+  }
+
+  std::vector<Segment2> section(const TetMesh &m, double y0)
+  {
+    std::vector<Segment2> out;
+    for (const auto &cell : m.cells)
+      {
+        // Points where the cell's edges cross the plane.
+        std::vector<std::array<double, 2>> cut;
+        for (int i = 0; i < 4; ++i)
+          for (int j = i + 1; j < 4; ++j)
+            {
+              const auto  &a = m.vertices[cell[i]], &b = m.vertices[cell[j]];
+              const double da = a[1] - y0, db = b[1] - y0;
+              if ((da < 0) != (db < 0))
+                {
+                  const double w = da / (da - db);
+                  cut.push_back({a[0] + w * (b[0] - a[0]), a[2] + w * (b[2] - a[2])});
+                }
+            }
+        if (cut.size() < 3)
+          continue;
+        // a triangle or a quadrilateral: order its corners around their centroid
+        double cx = 0, cz = 0;
+        for (const auto &p : cut)
+          cx += p[0] / static_cast<double>(cut.size()), cz += p[1] / static_cast<double>(cut.size());
+        std::sort(cut.begin(), cut.end(), [&](const auto &p, const auto &q) {
+          return std::atan2(p[1] - cz, p[0] - cx) < std::atan2(q[1] - cz, q[0] - cx);
+        });
+        for (std::size_t k = 0; k < cut.size(); ++k)
+          {
+            const auto &p = cut[k], &q = cut[(k + 1) % cut.size()];
+            out.push_back({p[0], p[1], q[0], q[1]});
+          }
+      }
+    return out;
   }
 
   void write_msh(const std::filesystem::path &path, const TetMesh &m)

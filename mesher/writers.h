@@ -3,6 +3,7 @@
 #pragma once
 
 #include <filesystem>
+#include <vector>
 
 #include "mesher/tet_mesh.h"
 
@@ -16,4 +17,12 @@ namespace rectify::mesher
   /// 2 outlet, 3 walls, 4 reed), tetrahedra with physical tag 10 ("fluid")
   /// and the region + 1 as elementary tag.
   void write_msh(const std::filesystem::path &path, const TetMesh &mesh);
+
+  /// The cells' edges cut by the plane y = y0, as (x, z) segments: a
+  /// section to plot.
+  struct Segment2
+  {
+    double x0, z0, x1, z1;
+  };
+  std::vector<Segment2> section(const TetMesh &mesh, double y0);
 } // namespace rectify::mesher
