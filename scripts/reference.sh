@@ -6,6 +6,7 @@
 #   loaded/velocity                10-3500 Hz, 50 lb, dynamic, ideal, reed what-if (Figs. 5.4-5.6)
 #   loaded/trace-1420Hz            the phase lag of Fig. 5.5
 #   stiffness                      the reed's stiffness, shape and modes (sec. 3.1.3)
+#   mesh-100um                     the valve's fluid mesh at 100 um tip opening (VTU, msh, quality)
 # Interrupted? Run it again: finished sweep points are kept and not redone.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -21,4 +22,5 @@ $rectify sweep --scenario loaded --from 10 --to 3500 --n 100 --spacing linear \
   --out $out/loaded/velocity
 $rectify simulate --scenario loaded --frequency 1420 --cycles 300 --out $out/loaded/trace-1420Hz
 $rectify stiffness --out $out/stiffness
+$rectify mesh --opening 100um --out $out/mesh-100um
 echo "reference case done: see $out/*/*/summary.json and the PNG plots beside them"
