@@ -201,6 +201,19 @@ TEST(Mesher, ChangingADimensionChangesTheVolumeAsTheGeometrySays)
   EXPECT_NEAR((v2 - v0) / (M_PI * (std::pow(1.25e-3, 2) - std::pow(1.5875e-3, 2)) * 3e-3), 1.0, 1e-5);
 }
 
+TEST(Mesher, OutletFaceIsACaseParameter)
+{
+  for (const auto &[face, area] : {std::pair{"ceiling", 9e-3 * 8e-3}, std::pair{"y-min", 9e-3 * 2e-3},
+                                   std::pair{"y-max", 9e-3 * 2e-3}})
+    {
+      auto p                 = reference();
+      p.geometry.outlet_face = face;
+      const auto r           = mesh_valve(p, 50e-6);
+      EXPECT_NEAR(r.info.boundary_area_m2[outlet] / area, 1.0, 1e-9) << face;
+      EXPECT_NEAR(r.info.exact_outlet_area_m2 / area, 1.0, 1e-15) << face;
+    }
+}
+
 TEST(Mesher, ReedShapes)
 {
   const auto beam = ReedShape::beam(6.1e-3, 3.3e-3);
