@@ -101,33 +101,26 @@ namespace rectify::mesher
     std::snprintf(line, sizeof(line), "smallest angle of the floor triangles: %.3f deg\n\n",
                   q.min_floor_angle_deg);
     out += line;
-    out += "cells by smallest dihedral angle [deg]\nregion   <1     1-5    5-10   10-20  20-30  "
-           "30-40  >=40\n";
-    for (int r = 0; r <= n_regions; ++r)
-      {
-        const auto &rq = r < n_regions ? q.region[r] : q.all;
-        std::snprintf(line, sizeof(line), "%-6s", r < n_regions ? region_name(r).c_str() : "all");
-        out += line;
-        for (auto n : rq.dihedral_histogram)
-          {
-            std::snprintf(line, sizeof(line), " %6zu", n);
-            out += line;
-          }
-        out += "\n";
-      }
-    out += "\ncells by aspect ratio\nregion   <2     2-5    5-10   10-100 100-1e3 >=1e3\n";
-    for (int r = 0; r <= n_regions; ++r)
-      {
-        const auto &rq = r < n_regions ? q.region[r] : q.all;
-        std::snprintf(line, sizeof(line), "%-6s", r < n_regions ? region_name(r).c_str() : "all");
-        out += line;
-        for (auto n : rq.aspect_histogram)
-          {
-            std::snprintf(line, sizeof(line), " %6zu", n);
-            out += line;
-          }
-        out += "\n";
-      }
+    const auto histogram = [&](const std::string &heading, auto counts) {
+      out += heading;
+      for (int r = 0; r <= n_regions; ++r)
+        {
+          const auto &rq = r < n_regions ? q.region[r] : q.all;
+          std::snprintf(line, sizeof(line), "%-6s", r < n_regions ? region_name(r).c_str() : "all");
+          out += line;
+          for (auto n : counts(rq))
+            {
+              std::snprintf(line, sizeof(line), " %6zu", n);
+              out += line;
+            }
+          out += "\n";
+        }
+    };
+    histogram("cells by smallest dihedral angle [deg]\nregion   <1     1-5    5-10   10-20  20-30  "
+              "30-40  >=40\n",
+              [](const RegionQuality &r) { return r.dihedral_histogram; });
+    histogram("\ncells by aspect ratio\nregion   <2     2-5    5-10   10-100 100-1e3 >=1e3\n",
+              [](const RegionQuality &r) { return r.aspect_histogram; });
     out += "\nThe layered cells (gap, slab, port) are thin by design: one gap layer is a third of"
            " the local gap\nunder a floor triangle of size_reed_m; their quality is that of the"
            " floor triangle and the\nlayer grading. TetGen's cells (bulk) are isotropic.\n";
