@@ -2,6 +2,7 @@
 
 #include "mesher/parameters.h"
 #include "stiffness_solver/parameters.h"
+#include "stokes_solver/parameters.h"
 #include "system/parameters.h"
 
 namespace rectify::app
@@ -12,6 +13,7 @@ namespace rectify::app
     (void)system::SystemParameters::from_case(file);
     (void)stiffness::StiffnessParameters::from_case(file);
     (void)mesher::MeshParameters::from_case(file);
+    (void)stokes::FlowParameters::from_case(file);
     file.check_all_keys_known();
     return file;
   }

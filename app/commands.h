@@ -29,6 +29,9 @@ namespace rectify::app
   /// `mesh` (mesher/).
   void register_mesh_commands(CLI::App &app);
 
+  /// `stokes`, `map-resistance` (stokes_solver/).
+  void register_stokes_commands(CLI::App &app);
+
   /// `check`: validate a case file for every stage.
   void register_check_command(CLI::App &app);
 

@@ -16,6 +16,39 @@ namespace rectify::mesher::detail
     };
   } // namespace
 
+  void orient_and_label(TetMesh &m, const std::function<std::uint8_t(const std::array<Point3, 3> &)> &classify)
+  {
+    for (std::size_t c = 0; c < m.cells.size(); ++c)
+      if (cell_volume(m, c) < 0)
+        std::swap(m.cells[c][2], m.cells[c][3]);
+    std::vector<FaceRecord> faces;
+    for (std::uint32_t c = 0; c < m.cells.size(); ++c)
+      for (int k = 0; k < 4; ++k)
+        {
+          std::array<std::uint32_t, 3> key;
+          int                          n = 0;
+          for (int j = 0; j < 4; ++j)
+            if (j != k)
+              key[n++] = m.cells[c][j];
+          std::sort(key.begin(), key.end());
+          faces.push_back({key, c, m.cells[c][k]});
+        }
+    std::sort(faces.begin(), faces.end(), [](const FaceRecord &a, const FaceRecord &b) { return a.key < b.key; });
+    m.boundary.clear();
+    for (std::size_t i = 0; i < faces.size(); ++i)
+      {
+        const bool single = (i == 0 || faces[i - 1].key != faces[i].key) &&
+                            (i + 1 == faces.size() || faces[i + 1].key != faces[i].key);
+        if (!single)
+          continue;
+        auto        key = faces[i].key;
+        const auto &a = m.vertices[key[0]], &b = m.vertices[key[1]], &c = m.vertices[key[2]];
+        if (signed_volume(a, b, c, m.vertices[faces[i].opposite]) > 0)
+          std::swap(key[1], key[2]);
+        m.boundary.push_back({key, classify({a, b, c})});
+      }
+  }
+
   TetMesh assemble_fluid(TetMesh &all, const Layout &lay, const PortPolygon &polygon)
   {
     const auto  &g  = lay.g;

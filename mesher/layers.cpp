@@ -6,25 +6,22 @@
 
 namespace rectify::mesher::detail
 {
-  namespace
+  /// Splits the prism between two levels of a triangle into three
+  /// tetrahedra. The diagonal of each side face runs from the lower-numbered
+  /// floor vertex's `lo` point to the higher-numbered one's `hi` point, so
+  /// neighbouring prisms share their side faces' diagonals.
+  void split_prism(std::array<std::uint32_t, 3> tri, const std::array<std::uint32_t, 3> &lo,
+                   const std::array<std::uint32_t, 3> &hi, std::uint8_t tag, TetMesh &mesh)
   {
-    /// Splits the prism between two levels of a triangle into three
-    /// tetrahedra. The diagonal of each side face runs from the lower-numbered
-    /// floor vertex's `lo` point to the higher-numbered one's `hi` point, so
-    /// neighbouring prisms share their side faces' diagonals.
-    void split_prism(std::array<std::uint32_t, 3> tri, const std::array<std::uint32_t, 3> &lo,
-                     const std::array<std::uint32_t, 3> &hi, std::uint8_t tag, TetMesh &mesh)
-    {
-      std::array<int, 3> order{0, 1, 2};
-      std::sort(order.begin(), order.end(), [&](int i, int j) { return tri[i] < tri[j]; });
-      const auto a = order[0], b = order[1], c = order[2];
-      mesh.cells.push_back({lo[a], lo[b], lo[c], hi[c]});
-      mesh.cells.push_back({lo[a], lo[b], hi[b], hi[c]});
-      mesh.cells.push_back({lo[a], hi[a], hi[b], hi[c]});
-      for (int k = 0; k < 3; ++k)
-        mesh.region.push_back(tag);
-    }
-  } // namespace
+    std::array<int, 3> order{0, 1, 2};
+    std::sort(order.begin(), order.end(), [&](int i, int j) { return tri[i] < tri[j]; });
+    const auto a = order[0], b = order[1], c = order[2];
+    mesh.cells.push_back({lo[a], lo[b], lo[c], hi[c]});
+    mesh.cells.push_back({lo[a], lo[b], hi[b], hi[c]});
+    mesh.cells.push_back({lo[a], hi[a], hi[b], hi[c]});
+    for (int k = 0; k < 3; ++k)
+      mesh.region.push_back(tag);
+  }
 
   void build_slab(const Layout &lay, const PlanarMesh &floor, const std::vector<FloorPart> &where_tri,
                   TetMesh &all)

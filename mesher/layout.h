@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cmath>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -123,6 +124,19 @@ namespace rectify::mesher::detail
   std::vector<FloorPart> classify_floor(const Layout &layout, const PlanarMesh &floor,
                                         const PortPolygon &port);
   double                 min_angle_deg(const PlanarMesh &mesh);
+
+  /// Splits the prism between two levels (lo, hi points of the floor
+  /// triangle tri's vertices) into three tetrahedra tagged `tag`. The diagonal
+  /// of each side face runs from the lower-numbered floor vertex's `lo` point
+  /// to the higher-numbered one's `hi` point: neighbouring prisms conform.
+  void split_prism(std::array<std::uint32_t, 3> tri, const std::array<std::uint32_t, 3> &lo,
+                   const std::array<std::uint32_t, 3> &hi, std::uint8_t tag, TetMesh &mesh);
+
+  /// Orients every cell positively and lists the faces of exactly one cell
+  /// as boundary faces (outward), with the id `classify` gives them. For the
+  /// benchmark geometries, whose cells are all fluid.
+  void orient_and_label(TetMesh &mesh,
+                        const std::function<std::uint8_t(const std::array<Point3, 3> &face)> &classify);
 
   /// Slab vertex of floor point i at level m: i * (N + 1) + m; the slab's
   /// vertices come first in `all`.

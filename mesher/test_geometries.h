@@ -1,0 +1,22 @@
+// Geometries with exact flow solutions, meshed like the valve (a planar
+// CGAL triangulation extruded in layers), for verifying the flow solver.
+// Boundary ids as the valve's: inlet 1, outlet 2, walls 3.
+#pragma once
+
+#include "mesher/tet_mesh.h"
+
+namespace rectify::mesher
+{
+  /// A straight pipe along z from the inlet z = 0 to the outlet z = length;
+  /// its section is a polygon of `sides` sides with the area of the circle
+  /// of diameter `diameter`. In-plane size `size`, layers `layer` thick.
+  TetMesh pipe_mesh(double diameter, double length, double size, double layer, long sides = 64);
+
+  /// Radial flow between parallel discs: a port of `port_diameter` from the
+  /// inlet z = -port_length to z = 0 opens into the gap 0 < z < gap between
+  /// two discs of radius `outer_radius`; the outlet is the cylinder at
+  /// outer_radius. The in-plane size grows from `size` at the port's rim in
+  /// proportion to the radius (the pressure varies as ln r).
+  TetMesh radial_gap_mesh(double port_diameter, double port_length, double outer_radius, double gap,
+                          long gap_layers, double size, double port_layer, long sides = 64);
+} // namespace rectify::mesher

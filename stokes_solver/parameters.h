@@ -1,0 +1,29 @@
+// The flow solver's settings: case table [flow] (reference-case.md sec. 2).
+// The oil's density and viscosity are [fluid].
+#pragma once
+
+#include <string>
+
+#include "common/case_file.h"
+#include "common/fluid.h"
+
+namespace rectify::stokes
+{
+  struct FlowSettings
+  {
+    double      flow_rate_m3_per_s = 1.58e-6;   ///< thesis eq. 3.39 (20 Hz, 0.0036 in stroke)
+    double      outlet_pressure_Pa = 6894.757;  ///< 1 psi
+    std::string solver             = "auto";    ///< "direct" (MUMPS), "iterative" (FGMRES + AMG/Schur), "auto"
+    long        direct_max_dofs    = 150000;    ///< "auto": direct up to this many unknowns
+    double      tolerance          = 1e-12;     ///< relative residual of the iterative solver (mass balance ~1e-10)
+    long        max_iterations     = 2000;
+    static FlowSettings from_case(const CaseFile &file);
+  };
+
+  struct FlowParameters
+  {
+    FluidParameters fluid;
+    FlowSettings    settings;
+    static FlowParameters from_case(const CaseFile &file);
+  };
+} // namespace rectify::stokes

@@ -1,0 +1,104 @@
+// The Stokes solver (stokes_solver/) against exact solutions: Hagen-Poiseuille
+// in a pipe, lubrication flow between parallel discs; mass balance.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "mesher/test_geometries.h"
+#include "stokes_solver/stokes.h"
+
+using namespace rectify;
+using namespace rectify::stokes;
+
+namespace
+{
+  /// MPI and PETSc for the whole test program.
+  class MpiEnvironment : public ::testing::Environment
+  {
+  public:
+    void SetUp() override { session_ = std::make_unique<MpiSession>(); }
+    void TearDown() override { session_.reset(); }
+
+  private:
+    std::unique_ptr<MpiSession> session_;
+  };
+  const auto *const mpi_environment = ::testing::AddGlobalTestEnvironment(new MpiEnvironment);
+
+  FlowParameters oil(const std::string &solver = "direct")
+  {
+    FlowParameters p;
+    p.settings.solver = solver;
+    return p;
+  }
+} // namespace
+
+TEST(Stokes, PoiseuillePipe)
+{
+  const double D = 3.175e-3, L = 4 * D, mu = 0.0386;
+  const auto   mesh  = mesher::pipe_mesh(D, L, D / 6, D / 4);
+  const double exact = 128 * mu * L / (M_PI * std::pow(D, 4));
+  const auto   r     = solve_stokes(mesh, oil("direct"));
+  EXPECT_NEAR(r.R_dissipation_Pa_s_per_m3 / exact, 1.0, 5e-3);
+  EXPECT_NEAR(r.R_pressure_Pa_s_per_m3 / exact, 1.0, 5e-3);
+  EXPECT_LT(r.mass_balance_rel_error, 1e-8);
+  EXPECT_NEAR(r.inlet_flux_m3_per_s / 1.58e-6, 1.0, 1e-12); // the inlet profile carries exactly Q
+  EXPECT_NEAR(r.inlet_area_m2 / (M_PI * D * D / 4), 1.0, 1e-12);
+  // the iterative solver gives the same flow
+  const auto it = solve_stokes(mesh, oil("iterative"));
+  EXPECT_NEAR(it.R_pressure_Pa_s_per_m3 / r.R_pressure_Pa_s_per_m3, 1.0, 1e-7);
+  EXPECT_NEAR(it.R_dissipation_Pa_s_per_m3 / r.R_dissipation_Pa_s_per_m3, 1.0, 1e-7);
+  EXPECT_LT(it.mass_balance_rel_error, 1e-8);
+  EXPECT_GT(it.iterations, 1u);
+  std::printf("pipe: %zu DoFs, R %.6e (exact %.6e), iterative %u iterations %.2f s, direct %.2f s\n", r.n_dofs,
+              r.R_pressure_Pa_s_per_m3, exact, it.iterations, it.wall_time_s, r.wall_time_s);
+}
+
+// Radial flow from a port between parallel discs: lubrication theory
+// 6 mu Q ln(r2/r1) / (pi h^3) plus the port's Poiseuille part. The in-plane
+// size grows with the radius from 0.15 mm at the port's rim: the error from
+// the in-plane resolution falls linearly with it (1.0, 0.76, 0.55 % at 0.25,
+// 0.18, 0.125 mm, both gaps), two P2 layers across the gap.
+namespace
+{
+  double lubrication_R(double D, double l, double r2, double h, double mu)
+  {
+    return 6 * mu * std::log(r2 / (D / 2)) / (M_PI * h * h * h) + 128 * mu * l / (M_PI * std::pow(D, 4));
+  }
+} // namespace
+
+TEST(Stokes, RadialFlowBetweenDiscsMatchesLubricationTheory)
+{
+  const double D = 3.175e-3, l = 3e-3, r2 = 4e-3, mu = 0.0386;
+  for (double h : {5e-6, 10e-6})
+    {
+      const auto   mesh  = mesher::radial_gap_mesh(D, l, r2, h, 2, 0.15e-3, 0.75e-3);
+      const auto   r     = solve_stokes(mesh, oil("direct"));
+      const double exact = lubrication_R(D, l, r2, h, mu);
+      std::printf("discs h = %g um: %zu DoFs, R_p %.6e R_diss %.6e theory %.6e (%+.3f %%), %.2f s\n", h * 1e6,
+                  r.n_dofs, r.R_pressure_Pa_s_per_m3, r.R_dissipation_Pa_s_per_m3, exact,
+                  100 * (r.R_pressure_Pa_s_per_m3 / exact - 1), r.wall_time_s);
+      EXPECT_NEAR(r.R_pressure_Pa_s_per_m3 / exact, 1.0, 0.01) << h;
+      EXPECT_NEAR(r.R_dissipation_Pa_s_per_m3 / exact, 1.0, 0.01) << h;
+      EXPECT_LT(r.mass_balance_rel_error, 1e-8);
+    }
+}
+
+// At larger gaps the flow's turn from the port into the gap and its exit
+// add to thin-gap theory: the excess grows with h / r (printed) and falls as
+// the gap narrows towards the in-plane discretisation's share (< 1 %).
+TEST(StokesSlow, EntranceAndExitExcessFallsAsTheGapNarrows)
+{
+  const double D = 3.175e-3, l = 3e-3, r2 = 4e-3, mu = 0.0386;
+  double       previous = 1e300;
+  for (double h : {200e-6, 100e-6, 50e-6, 10e-6})
+    {
+      const auto   mesh   = mesher::radial_gap_mesh(D, l, r2, h, 4, 0.15e-3, 0.75e-3);
+      const auto   r      = solve_stokes(mesh, oil("direct"));
+      const double excess = r.R_pressure_Pa_s_per_m3 / lubrication_R(D, l, r2, h, mu) - 1;
+      std::printf("discs h = %g um (h/r1 = %.3f): excess over thin-gap theory %+.2f %%\n", h * 1e6, h / (D / 2),
+                  100 * excess);
+      EXPECT_LT(excess, previous) << h;
+      previous = excess;
+    }
+  EXPECT_LT(previous, 0.01);
+}
