@@ -14,6 +14,7 @@ packages=(
   libdeal.ii-dev         # finite elements: reed elasticity (ARPACK, UMFPACK inside)
   libtet1.5-dev          # TetGen as a library: the pocket's tetrahedra
   libcgal-dev            # CGAL: planar meshing, surface checks (mesher)
+  openmpi-bin            # mpirun: the flow solver in parallel
   libgtest-dev           # tests
   gnuplot-nox            # plots (PNG and SVG)
   libopenblas0-pthread   # fast BLAS for the sparse direct solves of the FE stages

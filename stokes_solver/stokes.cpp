@@ -62,6 +62,18 @@ namespace rectify::stokes
   namespace
   {
     using Clock = std::chrono::steady_clock;
+
+    /// Progress of the iterative solver on stderr: every 20 iterations.
+    PetscErrorCode report_progress(KSP, PetscInt it, PetscReal norm, void *start_norm)
+    {
+      auto *r0 = static_cast<double *>(start_norm);
+      if (it == 0)
+        *r0 = norm;
+      else if (it % 20 == 0)
+        std::fprintf(stderr, "  FGMRES iteration %d: residual %.2e of the initial\n", static_cast<int>(it),
+                     norm / *r0);
+      return 0;
+    }
     double seconds_since(Clock::time_point t)
     {
       return std::chrono::duration<double>(Clock::now() - t).count();
@@ -190,7 +202,9 @@ namespace rectify::stokes
 
     DoFHandler<3> dof(tria);
     dof.distribute_dofs(fe);
-    DoFRenumbering::component_wise(dof, std::vector<unsigned>{0, 0, 0, 1});
+    // No component-wise renumbering: in parallel it would make a process's
+    // DoFs non-contiguous; the field split takes the velocity and pressure
+    // DoFs as index sets instead.
     const IndexSet owned    = dof.locally_owned_dofs();
     IndexSet       relevant;
     DoFTools::extract_locally_relevant_dofs(dof, relevant);
@@ -398,6 +412,9 @@ namespace rectify::stokes
                                                                  {"-rectify_fieldsplit_p_pc_type", "jacobi"}})
           check_petsc(PetscOptionsSetValue(nullptr, key, value), "PetscOptionsSetValue");
         check_petsc(KSPSetFromOptions(ksp), "KSPSetFromOptions");
+        double initial_norm = 1;
+        if (verbose && root)
+          check_petsc(KSPMonitorSet(ksp, report_progress, &initial_norm, nullptr), "KSPMonitorSet");
         check_petsc(KSPSolve(ksp, rhs, solution), "KSPSolve");
         KSPConvergedReason reason;
         PetscInt           its;

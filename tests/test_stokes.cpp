@@ -4,7 +4,12 @@
 
 #include <cmath>
 
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "common/io.h"
 #include "mesher/test_geometries.h"
+#include "tests/cli_helpers.h"
 #include "stokes_solver/stokes.h"
 
 using namespace rectify;
@@ -101,4 +106,30 @@ TEST(StokesSlow, EntranceAndExitExcessFallsAsTheGapNarrows)
       previous = excess;
     }
   EXPECT_LT(previous, 0.01);
+}
+
+// `mpirun -np 2 rectify stokes` gives the one-process results (a coarse valve
+// mesh, direct solver on both).
+TEST(Stokes, TwoProcessesGiveTheOneProcessResult)
+{
+  using namespace rectify::test_support;
+  const auto dir = scratch("stokes_mpi");
+  write_file_atomic(dir / "coarse.toml", "[mesh]\nsize_reed_m = 0.5e-3\nsize_far_m = 1.5e-3\n"
+                                         "station_spacing_m = 0.4e-3\ngap_layers = 2\nreed_layers = 1\n"
+                                         "above_layers = 1\nport_layer_m = 1e-3\n[flow]\nsolver = \"direct\"\n");
+  const std::string args = " stokes --case " + (dir / "coarse.toml").string() + " --opening 50um --no-vtu --out ";
+  auto one = rectify_cli(args + (dir / "one").string());
+  ASSERT_EQ(one.exit_code, 0) << one.output;
+  // this test program runs under MPI itself (singleton): mpirun must not see its environment
+  const std::string mpirun = "for v in $(env | grep -o '^\\(OMPI\\|PMIX\\|OPAL\\)[A-Za-z0-9_]*'); do unset $v; done; "
+                             "mpirun --allow-run-as-root --oversubscribe -np 2 ";
+  const auto two = std::system((mpirun + RECTIFY_BINARY + args + (dir / "two").string() + " > " + (dir / "two.log").string() + " 2>&1").c_str());
+  ASSERT_EQ(two, 0) << std::ifstream(dir / "two.log").rdbuf();
+  std::ifstream a(dir / "one" / "summary.json"), b(dir / "two" / "summary.json");
+  const auto    s1 = nlohmann::json::parse(a), s2 = nlohmann::json::parse(b);
+  EXPECT_EQ(s2["n_processes"].get<int>(), 2);
+  for (const char *key : {"R_Pa_s_per_m3", "R_dissipation_Pa_s_per_m3", "A_eff_m2"})
+    EXPECT_NEAR(s2[key].get<double>() / s1[key].get<double>(), 1.0, 1e-9) << key;
+  EXPECT_EQ(s1["n_dofs"], s2["n_dofs"]);
+  EXPECT_LT(s2["mass_balance_rel_error"].get<double>(), 1e-8);
 }
