@@ -7,6 +7,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "common/case_file.h"
 #include "common/io.h"
 #include "mesher/test_geometries.h"
 #include "tests/cli_helpers.h"
@@ -132,4 +133,34 @@ TEST(Stokes, TwoProcessesGiveTheOneProcessResult)
     EXPECT_NEAR(s2[key].get<double>() / s1[key].get<double>(), 1.0, 1e-9) << key;
   EXPECT_EQ(s1["n_dofs"], s2["n_dofs"]);
   EXPECT_LT(s2["mass_balance_rel_error"].get<double>(), 1e-8);
+}
+
+TEST(Stokes, BadInputIsRejected)
+{
+  const auto mesh = mesher::pipe_mesh(3.175e-3, 6e-3, 1e-3, 2e-3);
+  auto       p    = oil();
+  p.fluid.viscosity_Pa_s = 0;
+  EXPECT_THROW(solve_stokes(mesh, p), InputError);
+  p                             = oil();
+  p.settings.flow_rate_m3_per_s = -1e-6;
+  EXPECT_THROW(solve_stokes(mesh, p), InputError);
+  auto no_outlet = mesh;
+  for (auto &f : no_outlet.boundary)
+    if (f.id == mesher::outlet)
+      f.id = mesher::walls;
+  try
+    {
+      solve_stokes(no_outlet, oil());
+      ADD_FAILURE() << "a mesh without outlet accepted";
+    }
+  catch (const InputError &e)
+    {
+      EXPECT_NE(std::string(e.what()).find("no outlet"), std::string::npos) << e.what();
+    }
+  auto bad_id = mesh;
+  bad_id.boundary.front().id = 7;
+  EXPECT_THROW(solve_stokes(bad_id, oil()), InputError);
+  // the case file: [flow] keys named
+  EXPECT_THROW(FlowParameters::from_case(CaseFile::parse("[flow]\nflow_rate_m3_per_s = 0\n", "f.toml")), InputError);
+  EXPECT_THROW(FlowParameters::from_case(CaseFile::parse("[flow]\nsolver = \"cg\"\n", "f.toml")), InputError);
 }
