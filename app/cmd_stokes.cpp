@@ -2,9 +2,15 @@
 // stokes_solver/. Run with `mpirun -np N rectify stokes ...` for N processes.
 #include <cmath>
 #include <cstdio>
+#include <map>
+#include <memory>
 
 #include "app/commands.h"
+#include "common/checkpoint.h"
 #include "common/io.h"
+#include "common/plot.h"
+#include "common/progress.h"
+#include "maps/resistance_map.h"
 #include "mesher/mesher.h"
 #include "stokes_solver/stokes.h"
 
@@ -89,6 +95,150 @@ namespace rectify::app
                   r.inlet_pressure_Pa - r.outlet_pressure_Pa, r.reed_force_N[2], r.A_eff_m2,
                   r.mass_balance_rel_error, r.n_dofs, r.solver.c_str(), r.iterations, r.wall_time_s);
     }
+    struct MapOptions
+    {
+      std::string case_path;
+      std::string out_dir;
+      std::string openings = "2e-6:1210e-6:25";
+    };
+
+    /// "FROM:TO:N" -> N openings, log-spaced.
+    std::vector<double> log_range(const std::string &text)
+    {
+      double      from = 0, to = 0;
+      long        n    = 0;
+      char        tail = 0;
+      if (std::sscanf(text.c_str(), "%lf:%lf:%ld%c", &from, &to, &n, &tail) != 3 || !(from > 0) ||
+          !(to > from) || n < 2 || !std::isfinite(to))
+        throw InputError("--openings = \"" + text + "\": expected FROM:TO:N in metres, 0 < FROM < TO, N >= 2");
+      std::vector<double> x;
+      for (long k = 0; k < n; ++k)
+        x.push_back(k == n - 1 ? to : from * std::pow(to / from, static_cast<double>(k) / static_cast<double>(n - 1)));
+      return x;
+    }
+
+    void map_resistance_command(const MapOptions &o)
+    {
+      const CaseFile file     = load_case(o.case_path);
+      const auto     mp       = mesher::MeshParameters::from_case(file);
+      const auto     fp       = stokes::FlowParameters::from_case(file);
+      const auto     openings = log_range(o.openings);
+      stokes::MpiSession mpi;
+      const bool         root = mpi.rank() == 0;
+      const std::filesystem::path out(o.out_dir);
+      if (root)
+        echo_settings("map-resistance", {{"case", o.case_path},
+                                         {"openings [m]", o.openings + " (log-spaced)"},
+                                         {"processes", std::to_string(mpi.size())},
+                                         {"output", o.out_dir}});
+      const auto &g = mp.geometry;
+      const auto &s = mp.settings;
+      const nlohmann::json fingerprint = {
+        {"openings_m", openings},
+        {"geometry", {g.reed_length_m, g.reed_width_m, g.reed_thickness_m, g.port_diameter_m, g.port_center_x_m,
+                      g.port_length_m, g.pocket_length_m, g.pocket_width_m, g.pocket_height_m, g.outlet_face}},
+        {"mesh", {s.shape, s.shape_table.string(), s.size_reed_m, s.size_far_m, s.size_growth, s.station_spacing_m,
+                  s.port_segments, s.gap_layers, s.reed_layers, s.above_layers, s.slab_margin_m, s.blend_distance_m,
+                  s.port_layer_m, s.gap_cutoff_ratio}},
+        {"fluid", {fp.fluid.viscosity_Pa_s, fp.fluid.density_kg_per_m3}},
+        {"flow", {fp.settings.flow_rate_m3_per_s, fp.settings.outlet_pressure_Pa, fp.settings.solver,
+                  fp.settings.tolerance}}};
+      const std::vector<std::string> columns{"opening_m", "R_Pa_s_per_m3", "R_dissipation_Pa_s_per_m3",
+                                             "reed_force_N", "A_eff_m2", "pressure_drop_Pa",
+                                             "mass_balance_rel_error", "n_dofs", "iterations", "wall_time_s"};
+      std::string header;
+      for (const auto &c : columns)
+        header += (header.empty() ? "" : ",") + c;
+      // The root keeps the checkpoint; every process learns what is done.
+      std::unique_ptr<Checkpoint>           checkpoint;
+      std::map<double, std::vector<double>> done;
+      std::vector<double>                   flat;
+      if (root)
+        {
+          ensure_directory(out);
+          checkpoint = std::make_unique<Checkpoint>(out, "map-partial", fingerprint, header);
+          for (const auto &row : checkpoint->finished_rows())
+            {
+              const auto csv = parse_csv(header + "\n" + row + "\n", (out / "map-partial.csv").string());
+              flat.insert(flat.end(), csv.rows[0].begin(), csv.rows[0].end());
+            }
+        }
+      flat = mpi.broadcast(flat);
+      for (std::size_t i = 0; i + columns.size() <= flat.size(); i += columns.size())
+        done[flat[i]] = std::vector<double>(flat.begin() + static_cast<long>(i),
+                                            flat.begin() + static_cast<long>(i + columns.size()));
+
+      Progress progress("map-resistance", openings.size(), done.size(), !root);
+      for (double x : openings)
+        {
+          if (done.count(x))
+            continue;
+          const auto valve = mesher::mesh_valve(mp, x, false);
+          const auto r     = stokes::solve_stokes(valve.mesh, fp);
+          const std::vector<double> row{x, r.R_pressure_Pa_s_per_m3, r.R_dissipation_Pa_s_per_m3,
+                                        r.reed_force_N[2], r.A_eff_m2, r.inlet_pressure_Pa - r.outlet_pressure_Pa,
+                                        r.mass_balance_rel_error, static_cast<double>(r.n_dofs),
+                                        static_cast<double>(r.iterations), r.wall_time_s};
+          done[x] = row;
+          if (!root)
+            continue;
+          std::string line;
+          char        buf[40];
+          for (double v : row)
+            {
+              std::snprintf(buf, sizeof(buf), "%.17g", v);
+              line += (line.empty() ? "" : ",") + std::string(buf);
+            }
+          checkpoint->append(line);
+          char what[160];
+          std::snprintf(what, sizeof(what), "%.4g um: R = %.4e Pa s/m^3, %zu DoFs, %.1f s", x * 1e6,
+                        r.R_pressure_Pa_s_per_m3, r.n_dofs, r.wall_time_s);
+          progress.step(what);
+        }
+      if (!root)
+        return;
+
+      CsvTable points(columns), thesis({"opening_m", "R_Pa_s_per_m3"});
+      std::vector<double> map_x{0.0}, map_R{1e17}; // closed valve: the thesis's value (sec. 3.2.4)
+      for (double x : openings)
+        {
+          points.add_row(done.at(x));
+          map_x.push_back(x);
+          map_R.push_back(done.at(x)[1]);
+        }
+      for (int k = 0; k <= 200; ++k) // the thesis's fit, drawn finely over the same range
+        {
+          const double x    = openings.front() * std::pow(openings.back() / openings.front(), k / 200.0);
+          const double t[2] = {x, std::max(2.34e11 * std::exp(-0.025 * x * 1e6), 4.5e8)};
+          thesis.add_row(t);
+        }
+      points.write(out / "map-points.csv");
+      thesis.write(out / "thesis-fit.csv");
+      nlohmann::json meta = fingerprint;
+      meta["source"]      = "rectify map-resistance: Stokes flow, R = (mean inlet p - mean outlet p) / Q";
+      meta["closed_R"]    = "1e17 Pa s/m^3 at x = 0, the thesis's closed-valve value";
+      meta["written_by"]  = std::string("rectify ") + RECTIFY_VERSION;
+      const maps::ResistanceMap map(map_x, map_R, (out / "resistance-map.csv").string(), meta);
+      map.write(out / "resistance-map.csv");
+      render_plot(out / "resistance-map",
+                  {{"Valve resistance R(x): Stokes flow vs the thesis's fit (Fig. 3.7)", "tip opening [um]",
+                    "R [Pa s/m^3]", true, true,
+                    {{out / "map-points.csv", "opening_m", "R_Pa_s_per_m3", "Stokes, mean pressures", "linespoints", 1e6, 1},
+                     {out / "map-points.csv", "opening_m", "R_dissipation_Pa_s_per_m3", "Stokes, dissipation", "points", 1e6, 1},
+                     {out / "thesis-fit.csv", "opening_m", "R_Pa_s_per_m3", "thesis fit 2.34e11 exp(-0.025 x), floor 4.5e8", "lines", 1e6, 1}}}});
+      write_json(out / "summary.json", {{"command", "map-resistance"},
+                                        {"rectify_version", RECTIFY_VERSION},
+                                        {"case", o.case_path},
+                                        {"opening_m", points.column("opening_m")},
+                                        {"R_Pa_s_per_m3", points.column("R_Pa_s_per_m3")},
+                                        {"R_dissipation_Pa_s_per_m3", points.column("R_dissipation_Pa_s_per_m3")},
+                                        {"A_eff_m2", points.column("A_eff_m2")},
+                                        {"mass_balance_rel_error", points.column("mass_balance_rel_error")},
+                                        {"n_processes", mpi.size()},
+                                        {"settings", fingerprint}});
+      std::printf("R(x) at %zu openings in %s (resistance-map.csv, resistance-map.png)\n", openings.size(),
+                  out.c_str());
+    }
   } // namespace
 
   void register_stokes_commands(CLI::App &app)
@@ -102,5 +252,13 @@ namespace rectify::app
       ->required();
     cmd->add_flag("--no-vtu", o->no_vtu, "no VTU of velocity and pressure");
     cmd->callback([o]() { stokes_command(*o); });
+
+    auto  m    = std::make_shared<MapOptions>();
+    auto *mcmd = app.add_subcommand(
+      "map-resistance", "R(x) over log-spaced tip openings, as a map the system model reads; resumable.\n"
+                        "Example: mpirun -np 2 rectify map-resistance --out runs/R-map");
+    add_case_and_out(*mcmd, m->case_path, m->out_dir);
+    mcmd->add_option("--openings", m->openings, "FROM:TO:N tip openings [m], log-spaced")->capture_default_str();
+    mcmd->callback([m]() { map_resistance_command(*m); });
   }
 } // namespace rectify::app

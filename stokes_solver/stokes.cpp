@@ -58,6 +58,10 @@ namespace rectify::stokes
   MpiSession::~MpiSession() { delete impl_; }
   unsigned MpiSession::rank() const { return Utilities::MPI::this_mpi_process(MPI_COMM_WORLD); }
   unsigned MpiSession::size() const { return Utilities::MPI::n_mpi_processes(MPI_COMM_WORLD); }
+  std::vector<double> MpiSession::broadcast(std::vector<double> values) const
+  {
+    return Utilities::MPI::broadcast(MPI_COMM_WORLD, values, 0);
+  }
 
   namespace
   {

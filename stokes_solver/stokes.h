@@ -6,6 +6,7 @@
 #include <array>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "mesher/tet_mesh.h"
 #include "stokes_solver/parameters.h"
@@ -21,6 +22,8 @@ namespace rectify::stokes
     ~MpiSession();
     unsigned rank() const;
     unsigned size() const;
+    /// Every process gets the root's `values`.
+    std::vector<double> broadcast(std::vector<double> values) const;
 
   private:
     struct Impl;

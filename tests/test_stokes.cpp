@@ -9,6 +9,7 @@
 
 #include "common/case_file.h"
 #include "common/io.h"
+#include "maps/resistance_map.h"
 #include "mesher/test_geometries.h"
 #include "tests/cli_helpers.h"
 #include "stokes_solver/stokes.h"
@@ -163,4 +164,40 @@ TEST(Stokes, BadInputIsRejected)
   // the case file: [flow] keys named
   EXPECT_THROW(FlowParameters::from_case(CaseFile::parse("[flow]\nflow_rate_m3_per_s = 0\n", "f.toml")), InputError);
   EXPECT_THROW(FlowParameters::from_case(CaseFile::parse("[flow]\nsolver = \"cg\"\n", "f.toml")), InputError);
+}
+
+// `rectify map-resistance`: a valid map the system model reads; a run cut
+// short continues where it stopped (here: its last row removed).
+TEST(Stokes, ResistanceMapIsValidAndResumable)
+{
+  using namespace rectify::test_support;
+  const auto dir = scratch("stokes_map");
+  write_file_atomic(dir / "coarse.toml", "[mesh]\nsize_reed_m = 0.5e-3\nsize_far_m = 1.5e-3\n"
+                                         "station_spacing_m = 0.4e-3\ngap_layers = 2\nreed_layers = 1\n"
+                                         "above_layers = 1\nport_layer_m = 1e-3\n[flow]\nsolver = \"direct\"\n");
+  const std::string cmd = "map-resistance --case " + (dir / "coarse.toml").string() +
+                          " --openings 10e-6:500e-6:3 --out " + (dir / "map").string();
+  auto first = rectify_cli(cmd);
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+  const auto map = maps::ResistanceMap::read(dir / "map" / "resistance-map.csv");
+  ASSERT_EQ(map.openings().size(), 4u);
+  EXPECT_EQ(map.openings()[0], 0.0);
+  EXPECT_EQ(map.closed_resistance(), 1e17);
+  // thin-gap scaling between 10 and 70.7 um: R ~ h^-3 within 15 %
+  const double ratio = map.evaluate(10e-6).resistance / map.evaluate(map.openings()[2]).resistance;
+  EXPECT_NEAR(std::log(ratio) / std::log(map.openings()[2] / 10e-6), 3.0, 0.45);
+
+  // cut the checkpoint's last row: the run again computes only that opening
+  const auto partial = dir / "map" / "map-partial.csv";
+  std::ifstream in(partial);
+  std::string   text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  text.erase(text.find_last_of('\n', text.size() - 2) + 1);
+  write_file_atomic(partial, text);
+  auto again = rectify_cli(cmd);
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_NE(again.output.find("[3/3]"), std::string::npos) << again.output;
+  EXPECT_EQ(again.output.find("[1/3]"), std::string::npos) << again.output;
+  const auto map2 = maps::ResistanceMap::read(dir / "map" / "resistance-map.csv");
+  for (std::size_t i = 0; i < 4; ++i)
+    EXPECT_DOUBLE_EQ(map2.evaluate(map.openings()[i]).resistance, map.evaluate(map.openings()[i]).resistance);
 }
