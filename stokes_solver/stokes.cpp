@@ -414,7 +414,12 @@ namespace rectify::stokes
                                                                  {"-rectify_fieldsplit_u_pc_hypre_boomeramg_strong_threshold", "0.5"},
                                                                  {"-rectify_fieldsplit_p_ksp_type", "preonly"},
                                                                  {"-rectify_fieldsplit_p_pc_type", "jacobi"}})
-          check_petsc(PetscOptionsSetValue(nullptr, key, value), "PetscOptionsSetValue");
+          {
+            PetscBool given = PETSC_FALSE; // PETSC_OPTIONS may override each default
+            check_petsc(PetscOptionsHasName(nullptr, nullptr, key, &given), "PetscOptionsHasName");
+            if (!given)
+              check_petsc(PetscOptionsSetValue(nullptr, key, value), "PetscOptionsSetValue");
+          }
         check_petsc(KSPSetFromOptions(ksp), "KSPSetFromOptions");
         double initial_norm = 1;
         if (verbose && root)
