@@ -14,6 +14,27 @@ namespace rectify::mesher::detail
       std::uint32_t                cell;
       std::uint32_t                opposite;
     };
+
+    /// Every face of every cell (sorted vertex triple, cell, opposite vertex),
+    /// sorted so that a face's records are adjacent.
+    std::vector<FaceRecord> sorted_faces(const TetMesh &m)
+    {
+      std::vector<FaceRecord> faces;
+      faces.reserve(m.cells.size() * 4);
+      for (std::uint32_t c = 0; c < m.cells.size(); ++c)
+        for (int k = 0; k < 4; ++k)
+          {
+            std::array<std::uint32_t, 3> key;
+            int                          n = 0;
+            for (int j = 0; j < 4; ++j)
+              if (j != k)
+                key[n++] = m.cells[c][j];
+            std::sort(key.begin(), key.end());
+            faces.push_back({key, c, m.cells[c][k]});
+          }
+      std::sort(faces.begin(), faces.end(), [](const FaceRecord &a, const FaceRecord &b) { return a.key < b.key; });
+      return faces;
+    }
   } // namespace
 
   void orient_and_label(TetMesh &m, const std::function<std::uint8_t(const std::array<Point3, 3> &)> &classify)
@@ -21,19 +42,7 @@ namespace rectify::mesher::detail
     for (std::size_t c = 0; c < m.cells.size(); ++c)
       if (cell_volume(m, c) < 0)
         std::swap(m.cells[c][2], m.cells[c][3]);
-    std::vector<FaceRecord> faces;
-    for (std::uint32_t c = 0; c < m.cells.size(); ++c)
-      for (int k = 0; k < 4; ++k)
-        {
-          std::array<std::uint32_t, 3> key;
-          int                          n = 0;
-          for (int j = 0; j < 4; ++j)
-            if (j != k)
-              key[n++] = m.cells[c][j];
-          std::sort(key.begin(), key.end());
-          faces.push_back({key, c, m.cells[c][k]});
-        }
-    std::sort(faces.begin(), faces.end(), [](const FaceRecord &a, const FaceRecord &b) { return a.key < b.key; });
+    const std::vector<FaceRecord> faces = sorted_faces(m);
     m.boundary.clear();
     for (std::size_t i = 0; i < faces.size(); ++i)
       {
@@ -77,21 +86,7 @@ namespace rectify::mesher::detail
         min_relative = std::min(min_relative, rel);
       }
 
-    std::vector<FaceRecord> faces;
-    faces.reserve(all.cells.size() * 4);
-    for (std::uint32_t c = 0; c < all.cells.size(); ++c)
-      for (int k = 0; k < 4; ++k)
-        {
-          std::array<std::uint32_t, 3> key;
-          int                          n = 0;
-          for (int j = 0; j < 4; ++j)
-            if (j != k)
-              key[n++] = all.cells[c][j];
-          std::sort(key.begin(), key.end());
-          faces.push_back({key, c, all.cells[c][k]});
-        }
-    std::sort(faces.begin(), faces.end(),
-              [](const FaceRecord &a, const FaceRecord &b) { return a.key < b.key; });
+    const std::vector<FaceRecord> faces = sorted_faces(all);
 
     const double tol  = 1e-9 * lay.Lp;
     auto         on   = [&](const std::array<std::uint32_t, 3> &f, int axis, double value) {

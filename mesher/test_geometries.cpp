@@ -141,13 +141,14 @@ namespace rectify::mesher
     const double R_out = outer_radius * std::sqrt(2 * M_PI / (n4 * std::sin(2 * M_PI / n4)));
     const double r_in  = R_out * std::cos(M_PI / n4) * (1 - 1e-9);
     detail::orient_and_label(m, [&](const std::array<Point3, 3> &f) -> std::uint8_t {
-      bool at_inlet = true, at_rim = true;
+      bool at_inlet = true, at_rim = true, at_top = true;
       for (const auto &p : f)
         {
           at_inlet = at_inlet && std::abs(p[2] + port_length) < tol;
           at_rim   = at_rim && p[2] > -tol && std::hypot(p[0], p[1]) >= r_in;
+          at_top   = at_top && std::abs(p[2] - gap) < 1e-9 * gap;
         }
-      return at_inlet ? inlet : at_rim ? outlet : walls;
+      return at_inlet ? inlet : at_rim ? outlet : at_top ? reed : walls;
     });
     // Drop the vertices the merge left unused.
     std::vector<std::int64_t> index(m.vertices.size(), -1);

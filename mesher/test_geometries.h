@@ -16,7 +16,8 @@ namespace rectify::mesher
   /// inlet z = -port_length to z = 0 opens into the gap 0 < z < gap between
   /// two discs of radius `outer_radius`; the outlet is the cylinder at
   /// outer_radius. The in-plane size grows from `size` at the port's rim in
-  /// proportion to the radius (the pressure varies as ln r).
+  /// proportion to the radius (the pressure varies as ln r). The upper disc
+  /// carries the reed's id 4, so that the force on it can be checked.
   TetMesh radial_gap_mesh(double port_diameter, double port_length, double outer_radius, double gap,
                           long gap_layers, double size, double port_layer, long sides = 64);
 } // namespace rectify::mesher

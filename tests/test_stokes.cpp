@@ -87,6 +87,16 @@ TEST(Stokes, RadialFlowBetweenDiscsMatchesLubricationTheory)
       EXPECT_NEAR(r.R_pressure_Pa_s_per_m3 / exact, 1.0, 0.01) << h;
       EXPECT_NEAR(r.R_dissipation_Pa_s_per_m3 / exact, 1.0, 0.01) << h;
       EXPECT_LT(r.mass_balance_rel_error, 1e-8);
+      // The force on the upper disc (the "reed"): lubrication pressure
+      // C ln(r2/r) over the gap plus p(r1) over the port gives
+      // F = 3 mu Q (r2^2 - r1^2) / h^3, and A_eff = F / dp.
+      const double r1 = D / 2, Q = 1.58e-6;
+      const double F  = 3 * mu * Q * (r2 * r2 - r1 * r1) / (h * h * h);
+      std::printf("  force %.6e N (lubrication %.6e), A_eff %.4f mm^2 (lubrication %.4f)\n", r.reed_force_N[2], F,
+                  r.A_eff_m2 * 1e6, F / (exact * Q) * 1e6);
+      EXPECT_NEAR(r.reed_force_N[2] / F, 1.0, 0.02) << h;
+      EXPECT_NEAR(r.A_eff_m2 / (F / (exact * Q)), 1.0, 0.02) << h;
+      EXPECT_LT(std::abs(r.reed_force_N[0]) + std::abs(r.reed_force_N[1]), 1e-6 * F); // symmetric
     }
 }
 
