@@ -7,6 +7,7 @@
 #include "common/io.h"
 #include "mesher/parameters.h"
 #include "stiffness_solver/parameters.h"
+#include "stokes_solver/parameters.h"
 #include "system/model.h"
 
 namespace rectify::app
@@ -25,6 +26,7 @@ namespace rectify::app
       const auto     sys  = system::SystemParameters::from_case(file);
       const auto     st   = stiffness::StiffnessParameters::from_case(file);
       const auto     mesh = mesher::MeshParameters::from_case(file);
+      const auto     flow = stokes::FlowParameters::from_case(file);
       const auto     map  = maps::ResistanceMap::read(sys.valves.resistance_map,
                                                       maps::parse_interpolation(sys.valves.interpolation));
       const nlohmann::json summary = {
@@ -48,6 +50,13 @@ namespace rectify::app
           {"pocket_width_m", st.geometry.pocket_width_m},
           {"pocket_height_m", st.geometry.pocket_height_m},
           {"outlet_face", st.geometry.outlet_face}}},
+        {"flow",
+         {{"flow_rate_m3_per_s", flow.settings.flow_rate_m3_per_s},
+          {"outlet_pressure_Pa", flow.settings.outlet_pressure_Pa},
+          {"solver", flow.settings.solver},
+          {"direct_max_dofs", flow.settings.direct_max_dofs},
+          {"tolerance", flow.settings.tolerance},
+          {"max_iterations", flow.settings.max_iterations}}},
         {"mesh",
          {{"shape", mesh.settings.shape},
           {"shape_table", mesh.settings.shape_table.string()},
