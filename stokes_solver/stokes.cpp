@@ -440,6 +440,9 @@ namespace rectify::stokes
                                    " ([flow] tolerance = " + format_number(s.tolerance) + ", max_iterations = " +
                                    std::to_string(s.max_iterations) + ")");
       }
+    if (!std::isfinite(solution.l2_norm()))
+      throw std::runtime_error("the Stokes solver (" + r.solver + ") returned a non-finite solution (" +
+                               std::to_string(r.n_dofs) + " DoFs); nothing is reported");
     constraints.distribute(solution);
     for (const auto i : owned_p)
       solution(i) *= sigma;
@@ -507,6 +510,10 @@ namespace rectify::stokes
       r.A_eff_m2 = r.reed_force_N[2] / (r.inlet_pressure_Pa - r.outlet_pressure_Pa);
     }
 
+    for (double v : {r.R_pressure_Pa_s_per_m3, r.R_dissipation_Pa_s_per_m3, r.mass_balance_rel_error, r.A_eff_m2})
+      if (!std::isfinite(v))
+        throw std::runtime_error("the Stokes solution gives a non-finite result (" + r.solver + ", " +
+                                 std::to_string(r.n_dofs) + " DoFs); nothing is reported");
     if (!vtu_dir.empty())
       {
         DataOut<3> out;
