@@ -351,13 +351,7 @@ namespace rectify::app
                                         fluid.eq321_frequency_Hz,
                                         static_cast<double>(r.n_dofs),
                                         r.wall_time_s};
-          std::string line;
-          char        buf[40];
-          for (double v : row)
-            {
-              std::snprintf(buf, sizeof(buf), "%.17g", v);
-              line += (line.empty() ? "" : ",") + std::string(buf);
-            }
+          const std::string line = csv_row(row);
           checkpoint.append(line);
           done[t] = row;
           char what[128];

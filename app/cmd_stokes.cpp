@@ -182,13 +182,7 @@ namespace rectify::app
           done[x] = row;
           if (!root)
             continue;
-          std::string line;
-          char        buf[40];
-          for (double v : row)
-            {
-              std::snprintf(buf, sizeof(buf), "%.17g", v);
-              line += (line.empty() ? "" : ",") + std::string(buf);
-            }
+          const std::string line = csv_row(row);
           checkpoint->append(line);
           char what[160];
           std::snprintf(what, sizeof(what), "%.4g um: R = %.4e Pa s/m^3, %zu DoFs, %.1f s", x * 1e6,

@@ -196,4 +196,15 @@ namespace rectify
     buffer << in.rdbuf();
     return parse_csv(buffer.str(), path.string());
   }
+  std::string csv_row(std::span<const double> values)
+  {
+    std::string line;
+    char        buf[40];
+    for (double v : values)
+      {
+        std::snprintf(buf, sizeof(buf), "%.17g", v);
+        line += (line.empty() ? "" : ",") + std::string(buf);
+      }
+    return line;
+  }
 } // namespace rectify

@@ -19,6 +19,9 @@ namespace rectify
   /// Creates the output folder (and parents); a clear error if it cannot.
   void ensure_directory(const std::filesystem::path &dir);
 
+  /// One CSV row: the values at full precision (%.17g), comma-separated, no newline.
+  std::string csv_row(std::span<const double> values);
+
   /// A table of named real columns, written as CSV with a header line.
   class CsvTable
   {

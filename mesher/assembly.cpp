@@ -62,7 +62,6 @@ namespace rectify::mesher::detail
   {
     const auto  &g  = lay.g;
     const double hp = 0.5 * lay.Wp;
-    double min_relative = 1e300;
     for (std::size_t c = 0; c < all.cells.size(); ++c)
       {
         auto        &v  = all.cells[c];
@@ -83,7 +82,6 @@ namespace rectify::mesher::detail
         if (!(rel > 1e-13))
           throw MeshError("a degenerate or inverted cell (" + region_name(all.region[c]) + ") at " +
                           where(all.vertices[v[0]]) + ": volume / edge^3 = " + format_number(rel));
-        min_relative = std::min(min_relative, rel);
       }
 
     const std::vector<FaceRecord> faces = sorted_faces(all);

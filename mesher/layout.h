@@ -71,7 +71,6 @@ namespace rectify::mesher::detail
     }
 
     double sampled_h(double x) const { return opening * shape(std::min(x, L)); }
-    double slab_top(double x) const { return sampled_h(x) + t + s.slab_margin_m; }
 
     /// Distance from (x, y) to the reed's footprint [0, L] x [-W/2, W/2].
     double distance_to_reed(double x, double y) const

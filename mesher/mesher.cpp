@@ -4,7 +4,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <numeric>
 
 #include "mesher/layout.h"
 
@@ -90,7 +89,6 @@ namespace rectify::mesher
     info.n_stations           = lay.shape.stations().size();
     info.closed_to_m          = lay.x_closed;
     info.cutoff_thickness_m   = lay.h_cut;
-    info.min_open_gap_m       = lay.h_cut;
     info.shape_sampling_error = lay.shape.max_sampling_error();
     info.quality              = measure_quality(mesh);
     info.quality.min_floor_angle_deg = min_angle_deg(floor);
@@ -164,8 +162,8 @@ namespace rectify::mesher
       {"gap_layers", i.gap_layers},
       {"gap", {{"volume_m3", i.gap_volume_m3},
                {"exact_volume_m3", i.exact_gap_volume_m3},
-               {"thinnest_open_gap_m", i.min_open_gap_m},
-               {"thinnest_layer_m", i.min_open_gap_m / static_cast<double>(i.gap_layers)}}},
+               {"thinnest_open_gap_m", i.cutoff_thickness_m},
+               {"thinnest_layer_m", i.cutoff_thickness_m / static_cast<double>(i.gap_layers)}}},
       {"closed_gap", {{"from_clamp_to_m", i.closed_to_m},
                       {"cutoff_thickness_m", i.cutoff_thickness_m},
                       {"note", "the gap under the reed is treated as closed (a wall) from the clamp"
