@@ -55,6 +55,7 @@ namespace rectify::app
           {"outlet_pressure_Pa", flow.settings.outlet_pressure_Pa},
           {"solver", flow.settings.solver},
           {"direct_max_dofs", flow.settings.direct_max_dofs},
+          {"schur", flow.settings.schur},
           {"tolerance", flow.settings.tolerance},
           {"max_iterations", flow.settings.max_iterations}}},
         {"mesh",

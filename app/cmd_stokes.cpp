@@ -24,12 +24,15 @@ namespace rectify::app
       std::string out_dir;
       std::string opening;
       bool        no_vtu = false;
+      bool        navier_stokes = false;
+      double      flow_rate     = 0; ///< 0: the case's
     };
 
     nlohmann::json result_json(const stokes::StokesResult &r)
     {
       return {{"R_Pa_s_per_m3", r.R_pressure_Pa_s_per_m3},
               {"R_dissipation_Pa_s_per_m3", r.R_dissipation_Pa_s_per_m3},
+              {"R_gradient_dissipation_Pa_s_per_m3", r.R_gradient_dissipation_Pa_s_per_m3},
               {"inlet_pressure_Pa", r.inlet_pressure_Pa},
               {"outlet_pressure_Pa", r.outlet_pressure_Pa},
               {"inlet_flux_m3_per_s", r.inlet_flux_m3_per_s},
@@ -37,6 +40,7 @@ namespace rectify::app
               {"mass_balance_rel_error", r.mass_balance_rel_error},
               {"reed_force_N", r.reed_force_N},
               {"A_eff_m2", r.A_eff_m2},
+              {"kinetic_energy_flux_W", r.kinetic_energy_flux_W},
               {"inlet_area_m2", r.inlet_area_m2},
               {"outlet_area_m2", r.outlet_area_m2},
               {"n_dofs", r.n_dofs},
@@ -45,6 +49,7 @@ namespace rectify::app
               {"n_cells", r.n_cells},
               {"solver", r.solver},
               {"iterations", r.iterations},
+              {"newton_iterations", r.newton_iterations},
               {"n_processes", r.n_processes},
               {"setup_time_s", r.setup_time_s},
               {"assembly_time_s", r.assembly_time_s},
@@ -56,8 +61,15 @@ namespace rectify::app
     {
       const CaseFile file    = load_case(o.case_path);
       const auto     mp      = mesher::MeshParameters::from_case(file);
-      const auto     fp      = stokes::FlowParameters::from_case(file);
+      auto           fp      = stokes::FlowParameters::from_case(file);
       const double   opening = mesher::parse_length(o.opening, "--opening");
+      if (o.flow_rate != 0)
+        {
+          if (!(o.flow_rate > 0) || !std::isfinite(o.flow_rate))
+            throw InputError("--flow-rate = " + format_number(o.flow_rate) + ": must be positive (m^3/s)");
+          fp.settings.flow_rate_m3_per_s = o.flow_rate;
+        }
+      fp.settings.navier_stokes = o.navier_stokes;
       stokes::MpiSession mpi;
       const bool         root = mpi.rank() == 0;
       if (root)
@@ -66,6 +78,7 @@ namespace rectify::app
                                  {"flow rate [m^3/s]", format_number(fp.settings.flow_rate_m3_per_s)},
                                  {"viscosity [Pa s]", format_number(fp.fluid.viscosity_Pa_s)},
                                  {"solver", fp.settings.solver},
+                                 {"equations", o.navier_stokes ? "Stokes, then steady Navier-Stokes (Newton)" : "Stokes"},
                                  {"processes", std::to_string(mpi.size())},
                                  {"output", o.out_dir}});
       const auto valve = mesher::mesh_valve(mp, opening, root);
@@ -88,7 +101,17 @@ namespace rectify::app
       summary["reynolds"] = 4 * rho * Q / (M_PI * g.port_diameter_m * mu);
       summary["reynolds_gap_exit"] = 2 * rho * Q / ((2 * g.reed_length_m + g.reed_width_m) * mu);
       summary["mesh"] = mesher::to_json(valve.info);
+      summary["equations"] = o.navier_stokes ? "navier-stokes" : "stokes";
+      summary["stokes_R_Pa_s_per_m3"] = r.stokes_R_Pa_s_per_m3;
+      if (o.navier_stokes)
+        summary["inertia_shift_rel"] = r.R_pressure_Pa_s_per_m3 / r.stokes_R_Pa_s_per_m3 - 1;
       write_json(out / "summary.json", summary);
+      if (o.navier_stokes)
+        std::printf("inertia (steady Navier-Stokes, Re %.3g in the port, %.3g at the gap's exit): R = %.6e "
+                    "against Stokes %.6e Pa s/m^3 (%+.3f %%), %u Newton steps\n",
+                    summary["reynolds"].get<double>(), summary["reynolds_gap_exit"].get<double>(),
+                    r.R_pressure_Pa_s_per_m3, r.stokes_R_Pa_s_per_m3,
+                    100 * (r.R_pressure_Pa_s_per_m3 / r.stokes_R_Pa_s_per_m3 - 1), r.newton_iterations);
       std::printf("opening %s m: R = %.6e Pa s/m^3 (dissipation %.6e), dp = %.6g Pa, reed force %.6g N, "
                   "A_eff = %.6g m^2, mass balance %.1e, %zu DoFs, %s, %u iterations, %.1f s\n",
                   format_number(opening).c_str(), r.R_pressure_Pa_s_per_m3, r.R_dissipation_Pa_s_per_m3,
@@ -245,6 +268,9 @@ namespace rectify::app
     cmd->add_option("--opening", o->opening, "tip opening: metres, or with a unit (2e-6, 100um, 1.21mm)")
       ->required();
     cmd->add_flag("--no-vtu", o->no_vtu, "no VTU of velocity and pressure");
+    cmd->add_flag("--navier-stokes", o->navier_stokes,
+                  "then solve steady Navier-Stokes (Newton) and report how far inertia moves R");
+    cmd->add_option("--flow-rate", o->flow_rate, "flow rate [m^3/s] (default: the case's [flow] flow_rate_m3_per_s)");
     cmd->callback([o]() { stokes_command(*o); });
 
     auto  m    = std::make_shared<MapOptions>();

@@ -10,6 +10,7 @@ namespace rectify::stokes
     s.outlet_pressure_Pa = f.real(t, "outlet_pressure_Pa", s.outlet_pressure_Pa, Bounds{});
     s.solver             = f.text(t, "solver", s.solver, {"auto", "direct", "iterative"});
     s.direct_max_dofs    = f.integer(t, "direct_max_dofs", s.direct_max_dofs, 0, 100000000);
+    s.schur              = f.text(t, "schur", s.schur, {"gap", "mass"});
     s.tolerance          = f.real(t, "tolerance", s.tolerance, Bounds::open(0.0, 1e-2));
     s.max_iterations     = f.integer(t, "max_iterations", s.max_iterations, 1, 1000000);
     return s;

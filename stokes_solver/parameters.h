@@ -15,8 +15,14 @@ namespace rectify::stokes
     double      outlet_pressure_Pa = 6894.757;  ///< 1 psi
     std::string solver             = "auto";    ///< "direct" (MUMPS), "iterative" (FGMRES + AMG/Schur), "auto"
     long        direct_max_dofs    = 150000;    ///< "auto": direct up to this many unknowns
-    double      tolerance          = 1e-12;     ///< relative residual of the iterative solver (mass balance ~1e-10)
+    std::string schur              = "gap";     ///< Schur complement preconditioner: "gap" (mass + thin-gap Laplacian) or "mass"
+    double      tolerance          = 1e-11;     ///< relative residual of the iterative solver (mass balance ~1e-9)
     long        max_iterations     = 2000;
+    // Steady Navier-Stokes by Newton's method from the Stokes flow (`rectify
+    // stokes --navier-stokes`; not a case key: the map is Stokes, linear in Q).
+    bool        navier_stokes         = false;
+    double      newton_tolerance      = 1e-10; ///< relative change of R between Newton steps
+    long        newton_max_iterations = 20;
     static FlowSettings from_case(const CaseFile &file);
   };
 

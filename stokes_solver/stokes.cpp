@@ -32,15 +32,16 @@
 #include <deal.II/numerics/data_out.h>
 #include <deal.II/numerics/vector_tools.h>
 
-#include <petscksp.h>
 
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <memory>
 #include <stdexcept>
 
 #include "mesher/to_dealii.h"
+#include "stokes_solver/block_solver.h"
 
 namespace rectify::stokes
 {
@@ -67,27 +68,45 @@ namespace rectify::stokes
   {
     using Clock = std::chrono::steady_clock;
 
-    /// Progress of the iterative solver on stderr: every 20 iterations.
-    PetscErrorCode report_progress(KSP, PetscInt it, PetscReal norm, void *start_norm)
-    {
-      auto *r0 = static_cast<double *>(start_norm);
-      if (it == 0)
-        *r0 = norm;
-      else if (it % 20 == 0)
-        std::fprintf(stderr, "  FGMRES iteration %d: residual %.2e of the initial\n", static_cast<int>(it),
-                     norm / *r0);
-      return 0;
-    }
     double seconds_since(Clock::time_point t)
     {
       return std::chrono::duration<double>(Clock::now() - t).count();
     }
 
-    void check_petsc(PetscErrorCode code, const char *what)
+    /// The height of the thin gap over each of its floor points: the gap's
+    /// layered cells (region gap) stack in vertical columns over the floor's
+    /// points, so the vertical extent of a column is the gap's height there.
+    class GapHeights
     {
-      if (code != 0)
-        throw std::runtime_error(std::string("PETSc failed in ") + what + " (error " + std::to_string(code) + ")");
-    }
+    public:
+      explicit GapHeights(const mesher::TetMesh &m)
+      {
+        for (std::size_t c = 0; c < m.cells.size(); ++c)
+          if (m.region[c] == mesher::gap)
+            for (auto v : m.cells[c])
+              {
+                const auto &p = m.vertices[v];
+                auto [it, added] = column_.try_emplace({p[0], p[1]}, p[2], p[2]);
+                it->second.first  = std::min(it->second.first, p[2]);
+                it->second.second = std::max(it->second.second, p[2]);
+              }
+      }
+      /// The mean of the gap's height over a gap cell's vertices.
+      template <class Cell>
+      double of(const Cell &cell) const
+      {
+        double h = 0;
+        for (const auto v : cell->vertex_indices())
+          {
+            const auto &[lo, hi] = column_.at({cell->vertex(v)[0], cell->vertex(v)[1]});
+            h += (hi - lo) / cell->n_vertices();
+          }
+        return h;
+      }
+
+    private:
+      std::map<std::pair<double, double>, std::pair<double, double>> column_; // (x, y) -> (z min, z max)
+    };
 
     /// The inlet face's centre, inward normal and circumradius, from its faces.
     struct InletFrame
@@ -273,13 +292,43 @@ namespace rectify::stokes
     constraints.close();
 
     DynamicSparsityPattern dsp(relevant);
-    DoFTools::make_sparsity_pattern(dof, dsp, constraints, false);
+    // Velocity components couple only with themselves (the Laplacian form)
+    // and with the pressure; leaving the zero blocks out of the pattern
+    // keeps them out of the AMG hierarchy and the direct solver's factors.
+    // Navier-Stokes's linearised convection couples them all.
+    Table<2, DoFTools::Coupling> coupling(4, 4);
+    for (unsigned i = 0; i < 4; ++i)
+      for (unsigned j = 0; j < 4; ++j)
+        coupling(i, j) = i == j || i == 3 || j == 3 || s.navier_stokes ? DoFTools::always : DoFTools::none;
+    DoFTools::make_sparsity_pattern(dof, coupling, dsp, constraints, false);
     SparsityTools::distribute_sparsity_pattern(dsp, owned, comm, relevant);
-    PETScWrappers::MPI::SparseMatrix system, preconditioner;
+    PETScWrappers::MPI::SparseMatrix system, preconditioner, gap_laplace;
     system.reinit(owned, owned, dsp, comm);
     const bool direct = s.solver == "direct" || (s.solver == "auto" && r.n_dofs <= static_cast<std::size_t>(s.direct_max_dofs));
+    const bool gap_schur = !direct && s.schur == "gap";
     if (!direct)
       preconditioner.reinit(owned, owned, dsp, comm);
+    // The gap Laplacian (pressure block only) vanishes on the outlet's
+    // pressure DoFs, where the traction fixes the pressure.
+    AffineConstraints<double> outlet_pressure(relevant);
+    std::unique_ptr<GapHeights> gap_heights;
+    double                    wide_weight = 0;
+    if (gap_schur)
+      {
+        gap_laplace.reinit(owned, owned, dsp, comm);
+        std::map<types::global_dof_index, double> outlet_values;
+        VectorTools::interpolate_boundary_values(mapping, dof, mesher::outlet, zero, outlet_values,
+                                                 fe.component_mask(pressure));
+        for (const auto &[i, v] : outlet_values)
+          outlet_pressure.add_line(i);
+        outlet_pressure.close();
+        gap_heights = std::make_unique<GapHeights>(mesh);
+        Point<3> lo = Point<3>(mesh.vertices[0][0], mesh.vertices[0][1], mesh.vertices[0][2]), hi = lo;
+        for (const auto &v : mesh.vertices)
+          for (int d = 0; d < 3; ++d)
+            lo[d] = std::min(lo[d], v[d]), hi[d] = std::max(hi[d], v[d]);
+        wide_weight = lo.distance_square(hi) / mu;
+      }
     PETScWrappers::MPI::Vector rhs(owned, comm), solution(owned, comm);
     r.setup_time_s = seconds_since(start);
     lap("flow: set-up");
@@ -295,17 +344,28 @@ namespace rectify::stokes
     for (std::size_t c = 0; c < mesh.cells.size(); ++c)
       volume += mesher::cell_volume(mesh, c);
     const double sigma = mu / std::cbrt(volume / static_cast<double>(mesh.cells.size()));
+    const double rho   = parameters.fluid.density_kg_per_m3;
 
     // Assembly: mu grad u : grad v - p div v - q div u (the Laplacian form,
     // the same flow inside for constant mu; its natural outlet condition
     // (mu grad u - p I) n = -p_out n lets fully developed flow leave
     // undisturbed, which the symmetric-gradient form's does not); the
-    // preconditioner matrix has -(1/mu) p q in place of the zero pressure block.
-    const auto assembly_start = Clock::now();
-    {
+    // preconditioner matrix has -(1/mu) p q in place of the zero pressure
+    // block. With `state` (Newton's step for Navier-Stokes), the convection
+    // in skew-symmetric form, rho (u.grad)u + rho/2 (div u) u (the same for
+    // the exact, divergence-free flow; for the discrete one it makes the
+    // convection's work exactly the kinetic energy flux through the
+    // boundary, so the energy balance holds), linearised about the state's
+    // velocity w: rho [(w.grad)u + (u.grad)w + (div w) u / 2 + (div u) w / 2]
+    // on the left, rho [(w.grad)w + (div w) w / 2] on the right.
+    const auto assemble = [&](const PETScWrappers::MPI::Vector *state, bool with_gap_laplace) {
+      system = 0;
+      rhs    = 0;
+      if (!direct)
+        preconditioner = 0;
       FEValues<3> values(mapping, fe, quadrature, update_values | update_gradients | update_JxW_values);
       const unsigned n = fe.n_dofs_per_cell();
-      FullMatrix<double> local(n, n), local_prec(n, n);
+      FullMatrix<double> local(n, n), local_prec(n, n), local_laplace(n, n);
       Vector<double>     local_rhs(n);
       // Each shape function has one non-zero component: velocity functions
       // couple through mu grad.grad only with the same component, and with
@@ -314,44 +374,71 @@ namespace rectify::stokes
       for (unsigned i = 0; i < n; ++i)
         component[i] = fe.system_to_component_index(i).first;
       std::vector<Tensor<1, 3>> grad(n);
-      std::vector<double>       psi(n);
+      std::vector<double>       phi(n);
+      std::vector<Tensor<1, 3>> w(quadrature.size());
+      std::vector<Tensor<2, 3>> grad_w(quadrature.size());
       const double p_out = s.outlet_pressure_Pa;
       for (const auto &cell : dof.active_cell_iterators())
         if (cell->is_locally_owned())
           {
             values.reinit(cell);
-            local = 0, local_prec = 0, local_rhs = 0;
+            local = 0, local_prec = 0, local_rhs = 0, local_laplace = 0;
+            if (state != nullptr)
+              {
+                values[velocities].get_function_values(*state, w);
+                values[velocities].get_function_gradients(*state, grad_w);
+              }
+            // The cell's weight in the gap Laplacian (sigma^2 from the scaling).
+            double weight = 0;
+            if (with_gap_laplace)
+              {
+                const double h = cell->material_id() == mesher::gap ? gap_heights->of(cell) : 0.0;
+                weight = sigma * sigma * (h > 0 ? h * h / (12 * mu) : wide_weight);
+              }
             for (unsigned q = 0; q < values.n_quadrature_points; ++q)
               {
-                const double w = values.JxW(q);
+                const double dx    = values.JxW(q);
+                const double div_w = state != nullptr ? trace(grad_w[q]) : 0.0;
                 for (unsigned i = 0; i < n; ++i)
-                  if (component[i] < 3)
+                  {
                     grad[i] = values.shape_grad_component(i, q, component[i]);
-                  else
-                    psi[i] = values.shape_value_component(i, q, 3);
+                    phi[i]  = values.shape_value_component(i, q, component[i]);
+                  }
                 for (unsigned i = 0; i < n; ++i)
-                  for (unsigned j = 0; j < n; ++j)
-                    {
-                      const unsigned ci = component[i], cj = component[j];
-                      double         a  = 0;
-                      if (ci < 3 && cj < 3)
-                        {
-                          if (ci != cj)
+                  {
+                    const unsigned ci = component[i];
+                    if (state != nullptr && ci < 3)
+                      local_rhs(i) += rho * (w[q] * grad_w[q][ci] + 0.5 * div_w * w[q][ci]) * phi[i] * dx;
+                    for (unsigned j = 0; j < n; ++j)
+                      {
+                        const unsigned cj = component[j];
+                        double         a  = 0;
+                        if (ci < 3 && cj < 3)
+                          {
+                            if (state != nullptr)
+                              a = rho *
+                                  ((ci == cj ? w[q] * grad[j] + 0.5 * div_w * phi[j] : 0.0) +
+                                   phi[j] * grad_w[q][ci][cj] + 0.5 * grad[j][cj] * w[q][ci]) *
+                                  phi[i] * dx;
+                            if (ci == cj)
+                              a += mu * (grad[i] * grad[j]) * dx;
+                            else if (state == nullptr)
+                              continue;
+                          }
+                        else if (ci < 3)
+                          a = -sigma * grad[i][ci] * phi[j] * dx;
+                        else if (cj < 3)
+                          a = -sigma * phi[i] * grad[j][cj] * dx;
+                        else
+                          {
+                            local_prec(i, j) -= sigma * sigma * phi[i] * phi[j] / mu * dx;
+                            local_laplace(i, j) += weight * (grad[i] * grad[j]) * dx;
                             continue;
-                          a = mu * (grad[i] * grad[j]) * w;
-                        }
-                      else if (ci < 3)
-                        a = -sigma * grad[i][ci] * psi[j] * w;
-                      else if (cj < 3)
-                        a = -sigma * psi[i] * grad[j][cj] * w;
-                      else
-                        {
-                          local_prec(i, j) -= sigma * sigma * psi[i] * psi[j] / mu * w;
-                          continue;
-                        }
-                      local(i, j) += a;
-                      local_prec(i, j) += a;
-                    }
+                          }
+                        local(i, j) += a;
+                        local_prec(i, j) += a;
+                      }
+                  }
               }
             for (const auto f : cell->face_indices())
               if (cell->face(f)->at_boundary() && cell->face(f)->boundary_id() == mesher::outlet)
@@ -366,108 +453,78 @@ namespace rectify::stokes
             constraints.distribute_local_to_global(local, local_rhs, dofs, system, rhs);
             if (!direct)
               constraints.distribute_local_to_global(local_prec, dofs, preconditioner);
+            if (with_gap_laplace)
+              outlet_pressure.distribute_local_to_global(local_laplace, dofs, gap_laplace);
           }
       system.compress(VectorOperation::add);
       if (!direct)
         preconditioner.compress(VectorOperation::add);
+      if (with_gap_laplace)
+        gap_laplace.compress(VectorOperation::add);
       rhs.compress(VectorOperation::add);
-    }
-    r.assembly_time_s = seconds_since(assembly_start);
-    lap("flow: assembly");
+    };
 
-    // Solve.
-    const auto solve_start = Clock::now();
-    if (direct)
-      {
-        SolverControl                    control(1, 0);
-        PETScWrappers::SparseDirectMUMPS mumps(control, comm);
-        mumps.solve(system, solution, rhs);
-        r.solver     = "direct (MUMPS)";
-        r.iterations = 1;
-      }
-    else
-      {
-        KSP ksp;
-        PC  pc;
-        IS  is_u, is_p;
-        std::vector<PetscInt> iu(owned_u.begin(), owned_u.end()), ip(owned_p.begin(), owned_p.end());
-        check_petsc(KSPCreate(comm, &ksp), "KSPCreate");
-        check_petsc(KSPSetOptionsPrefix(ksp, "rectify_"), "KSPSetOptionsPrefix"); // before the splits: they inherit it
-        check_petsc(KSPSetOperators(ksp, system.petsc_matrix(), preconditioner.petsc_matrix()), "KSPSetOperators");
-        check_petsc(KSPSetType(ksp, KSPFGMRES), "KSPSetType");
-        check_petsc(KSPGMRESSetRestart(ksp, 300), "KSPGMRESSetRestart");
-        check_petsc(KSPSetTolerances(ksp, s.tolerance, 1e-300, 1e10, static_cast<PetscInt>(s.max_iterations)),
-                    "KSPSetTolerances");
-        check_petsc(KSPGetPC(ksp, &pc), "KSPGetPC");
-        check_petsc(PCSetType(pc, PCFIELDSPLIT), "PCSetType");
-        check_petsc(ISCreateGeneral(comm, static_cast<PetscInt>(iu.size()), iu.data(), PETSC_COPY_VALUES, &is_u), "IS");
-        check_petsc(ISCreateGeneral(comm, static_cast<PetscInt>(ip.size()), ip.data(), PETSC_COPY_VALUES, &is_p), "IS");
-        check_petsc(PCFieldSplitSetIS(pc, "u", is_u), "PCFieldSplitSetIS");
-        check_petsc(PCFieldSplitSetIS(pc, "p", is_p), "PCFieldSplitSetIS");
-        check_petsc(PCFieldSplitSetType(pc, PC_COMPOSITE_SCHUR), "PCFieldSplitSetType");
-        check_petsc(PCFieldSplitSetSchurFactType(pc, PC_FIELDSPLIT_SCHUR_FACT_UPPER), "SchurFactType");
-        check_petsc(PCFieldSplitSetSchurPre(pc, PC_FIELDSPLIT_SCHUR_PRE_A11, nullptr), "SchurPre");
-        for (const auto &[key, value] :
-             std::vector<std::pair<const char *, const char *>>{{"-rectify_fieldsplit_u_ksp_type", "preonly"},
-                                                                 {"-rectify_fieldsplit_u_pc_type", "hypre"},
-                                                                 {"-rectify_fieldsplit_u_pc_hypre_type", "boomeramg"},
-                                                                 {"-rectify_fieldsplit_u_pc_hypre_boomeramg_strong_threshold", "0.5"},
-                                                                 {"-rectify_fieldsplit_p_ksp_type", "preonly"},
-                                                                 {"-rectify_fieldsplit_p_pc_type", "jacobi"}})
-          {
-            PetscBool given = PETSC_FALSE; // PETSC_OPTIONS may override each default
-            check_petsc(PetscOptionsHasName(nullptr, nullptr, key, &given), "PetscOptionsHasName");
-            if (!given)
-              check_petsc(PetscOptionsSetValue(nullptr, key, value), "PetscOptionsSetValue");
-          }
-        check_petsc(KSPSetFromOptions(ksp), "KSPSetFromOptions");
-        double initial_norm = 1;
-        if (verbose && root)
-          check_petsc(KSPMonitorSet(ksp, report_progress, &initial_norm, nullptr), "KSPMonitorSet");
-        check_petsc(KSPSolve(ksp, rhs, solution), "KSPSolve");
-        KSPConvergedReason reason;
-        PetscInt           its;
-        KSPGetConvergedReason(ksp, &reason);
-        KSPGetIterationNumber(ksp, &its);
-        ISDestroy(&is_u);
-        ISDestroy(&is_p);
-        KSPDestroy(&ksp);
-        r.iterations = static_cast<unsigned>(its);
-        r.solver     = "FGMRES + field-split Schur (BoomerAMG on velocity, pressure mass on Schur)";
-        if (reason < 0)
-          throw std::runtime_error("the Stokes solver did not converge: " + r.solver + ", " +
-                                   std::to_string(its) + " iterations, PETSc reason " + std::to_string(reason) +
-                                   " ([flow] tolerance = " + format_number(s.tolerance) + ", max_iterations = " +
-                                   std::to_string(s.max_iterations) + ")");
-      }
-    if (!std::isfinite(solution.l2_norm()))
-      throw std::runtime_error("the Stokes solver (" + r.solver + ") returned a non-finite solution (" +
-                               std::to_string(r.n_dofs) + " DoFs); nothing is reported");
-    constraints.distribute(solution);
-    for (const auto i : owned_p)
-      solution(i) *= sigma;
-    solution.compress(VectorOperation::insert);
-    PETScWrappers::MPI::Vector ghosted(owned, relevant, comm);
-    ghosted = solution;
-    r.solve_time_s = seconds_since(solve_start);
-    lap(direct ? "flow: solve (MUMPS)" : "flow: solve (FGMRES)");
+    // One linear solve of the assembled system into `solution`.
+    const std::vector<PetscInt> velocity_indices(owned_u.begin(), owned_u.end()),
+      pressure_indices(owned_p.begin(), owned_p.end());
+    const auto linear_solve = [&]() {
+      if (direct)
+        {
+          SolverControl                    control(1, 0);
+          PETScWrappers::SparseDirectMUMPS mumps(control, comm);
+          mumps.solve(system, solution, rhs);
+          r.solver = "direct (MUMPS)";
+          r.iterations += 1;
+        }
+      else
+        {
+          BlockSolverSettings b;
+          b.tolerance      = s.tolerance;
+          b.max_iterations = s.max_iterations;
+          b.verbose        = verbose;
+          r.iterations += solve_block_system(system.petsc_matrix(), preconditioner.petsc_matrix(),
+                                             gap_schur ? gap_laplace.petsc_matrix() : nullptr, rhs, solution,
+                                             velocity_indices, pressure_indices, b);
+          r.solver = block_solver_name(gap_schur);
+        }
+      if (!std::isfinite(solution.l2_norm()))
+        throw std::runtime_error("the Stokes solver (" + r.solver + ") returned a non-finite solution (" +
+                                 std::to_string(r.n_dofs) + " DoFs); nothing is reported");
+      constraints.distribute(solution);
+    };
+
+    // The physical solution (pressure times sigma) with ghost values.
+    PETScWrappers::MPI::Vector ghosted(owned, relevant, comm), state(owned, relevant, comm);
+    const auto physical = [&]() {
+      PETScWrappers::MPI::Vector scaled = solution;
+      for (const auto i : owned_p)
+        scaled(i) *= sigma;
+      scaled.compress(VectorOperation::insert);
+      ghosted = scaled;
+    };
 
     // Results: mean pressures and fluxes on inlet and outlet, dissipation,
     // force on the reed.
-    {
+    const auto evaluate = [&]() {
       FEValues<3> values(mapping, fe, quadrature, update_gradients | update_JxW_values);
       std::vector<SymmetricTensor<2, 3>> e(quadrature.size());
+      std::vector<Tensor<2, 3>>          gu(quadrature.size());
       std::vector<Tensor<1, 3>>          u_face(face_quadrature.size());
       std::vector<SymmetricTensor<2, 3>> e_face(face_quadrature.size());
       std::vector<double>                p_face(face_quadrature.size());
-      double sums[12] = {}; // dissipation, p_in A, A_in, flux_in, p_out A, A_out, flux_out, F(3)
+      double sums[14] = {}; // dissipation, p_in A, A_in, flux_in, p_out A, A_out, flux_out, F(3), kinetic energy flux,
+                            // mu grad u : grad u
       for (const auto &cell : dof.active_cell_iterators())
         if (cell->is_locally_owned())
           {
             values.reinit(cell);
             values[velocities].get_function_symmetric_gradients(ghosted, e);
+            values[velocities].get_function_gradients(ghosted, gu);
             for (unsigned q = 0; q < quadrature.size(); ++q)
-              sums[0] += 2 * mu * (e[q] * e[q]) * values.JxW(q);
+              {
+                sums[0] += 2 * mu * (e[q] * e[q]) * values.JxW(q);
+                sums[13] += mu * scalar_product(gu[q], gu[q]) * values.JxW(q);
+              }
             for (const auto f : cell->face_indices())
               if (cell->face(f)->at_boundary())
                 {
@@ -480,22 +537,26 @@ namespace rectify::stokes
                   face_values[pressure].get_function_values(ghosted, p_face);
                   for (unsigned q = 0; q < face_quadrature.size(); ++q)
                     {
-                      const double w = face_values.JxW(q);
-                      const auto  &n = face_values.normal_vector(q);
+                      const double dA = face_values.JxW(q);
+                      const auto  &n  = face_values.normal_vector(q);
+                      if (id == mesher::inlet || id == mesher::outlet)
+                        sums[12] += 0.5 * rho * u_face[q].norm_square() * (u_face[q] * n) * dA;
                       if (id == mesher::inlet)
-                        sums[1] += p_face[q] * w, sums[2] += w, sums[3] -= u_face[q] * n * w;
+                        sums[1] += p_face[q] * dA, sums[2] += dA, sums[3] -= u_face[q] * n * dA;
                       else if (id == mesher::outlet)
-                        sums[4] += p_face[q] * w, sums[5] += w, sums[6] += u_face[q] * n * w;
+                        sums[4] += p_face[q] * dA, sums[5] += dA, sums[6] += u_face[q] * n * dA;
                       else // reed: the fluid's force on it, -sigma n with n out of the fluid
                         {
                           const Tensor<1, 3> t = (p_face[q] - s.outlet_pressure_Pa) * n - 2 * mu * (e_face[q] * n);
                           for (int d = 0; d < 3; ++d)
-                            sums[7 + d] += t[d] * w;
+                            sums[7 + d] += t[d] * dA;
                         }
                     }
                 }
           }
-      Utilities::MPI::sum(ArrayView<const double>(sums, 12), comm, ArrayView<double>(sums, 12));
+      Utilities::MPI::sum(ArrayView<const double>(sums, 14), comm, ArrayView<double>(sums, 14));
+      r.R_gradient_dissipation_Pa_s_per_m3 = sums[13] / (Q * Q);
+      r.kinetic_energy_flux_W = sums[12];
       r.inlet_area_m2             = sums[2];
       r.outlet_area_m2            = sums[5];
       r.inlet_pressure_Pa         = sums[1] / sums[2];
@@ -508,12 +569,54 @@ namespace rectify::stokes
       for (int d = 0; d < 3; ++d)
         r.reed_force_N[d] = sums[7 + d];
       r.A_eff_m2 = r.reed_force_N[2] / (r.inlet_pressure_Pa - r.outlet_pressure_Pa);
-    }
+      for (double v : {r.R_pressure_Pa_s_per_m3, r.R_dissipation_Pa_s_per_m3, r.mass_balance_rel_error, r.A_eff_m2})
+        if (!std::isfinite(v))
+          throw std::runtime_error("the Stokes solution gives a non-finite result (" + r.solver + ", " +
+                                   std::to_string(r.n_dofs) + " DoFs); nothing is reported");
+    };
 
-    for (double v : {r.R_pressure_Pa_s_per_m3, r.R_dissipation_Pa_s_per_m3, r.mass_balance_rel_error, r.A_eff_m2})
-      if (!std::isfinite(v))
-        throw std::runtime_error("the Stokes solution gives a non-finite result (" + r.solver + ", " +
-                                 std::to_string(r.n_dofs) + " DoFs); nothing is reported");
+    // Stokes.
+    auto step_start = Clock::now();
+    assemble(nullptr, gap_schur);
+    r.assembly_time_s = seconds_since(step_start);
+    lap("flow: assembly");
+    step_start = Clock::now();
+    linear_solve();
+    r.solve_time_s = seconds_since(step_start);
+    lap(direct ? "flow: solve (MUMPS)" : "flow: solve (FGMRES)");
+    physical();
+    evaluate();
+    r.stokes_R_Pa_s_per_m3              = r.R_pressure_Pa_s_per_m3;
+    r.stokes_kinetic_energy_flux_W     = r.kinetic_energy_flux_W;
+    r.stokes_R_gradient_dissipation_Pa_s_per_m3 = r.R_gradient_dissipation_Pa_s_per_m3;
+
+    // Navier-Stokes: Newton's method from the Stokes flow.
+    if (s.navier_stokes)
+      {
+        double change = 1;
+        while (change > s.newton_tolerance)
+          {
+            if (r.newton_iterations == static_cast<unsigned>(s.newton_max_iterations))
+              throw std::runtime_error("Newton's method for Navier-Stokes did not converge in " +
+                                       std::to_string(s.newton_max_iterations) + " steps (relative change " +
+                                       format_number(change) + "; Re too high for a steady flow?)");
+            state = solution;
+            const double previous = r.R_pressure_Pa_s_per_m3;
+            step_start = Clock::now();
+            assemble(&state, false);
+            r.assembly_time_s += seconds_since(step_start);
+            step_start = Clock::now();
+            linear_solve();
+            r.solve_time_s += seconds_since(step_start);
+            physical();
+            evaluate();
+            ++r.newton_iterations;
+            change = std::abs(r.R_pressure_Pa_s_per_m3 / previous - 1);
+            if (verbose && root)
+              std::fprintf(stderr, "  Newton step %u: R %.9e (change %.1e)\n", r.newton_iterations,
+                           r.R_pressure_Pa_s_per_m3, change);
+          }
+      }
     if (!vtu_dir.empty())
       {
         DataOut<3> out;

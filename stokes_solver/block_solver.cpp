@@ -1,0 +1,184 @@
+#include "stokes_solver/block_solver.h"
+
+#include "common/case_file.h"
+
+#include <petscksp.h>
+
+#include <cstdio>
+#include <stdexcept>
+#include <utility>
+
+namespace rectify::stokes
+{
+  namespace
+  {
+    void check_petsc(PetscErrorCode code, const char *what)
+    {
+      if (code != 0)
+        throw std::runtime_error(std::string("PETSc failed in ") + what + " (error " + std::to_string(code) + ")");
+    }
+
+    /// Progress of the iterative solver on stderr: every 20 iterations.
+    PetscErrorCode report_progress(KSP, PetscInt it, PetscReal norm, void *start_norm)
+    {
+      auto *r0 = static_cast<double *>(start_norm);
+      if (it == 0)
+        *r0 = norm;
+      else if (it % 20 == 0)
+        std::fprintf(stderr, "  FGMRES iteration %d: residual %.2e of the initial\n", static_cast<int>(it),
+                     norm / *r0);
+      return 0;
+    }
+
+    /// The Schur complement preconditioner for thin gaps (the "gap" choice):
+    /// S^-1 ~ Jacobi(pressure mass / mu) + AMG(gap Laplacian)^-1. In a gap of
+    /// height h the Schur complement of smooth pressures is the lubrication
+    /// operator -div(h^2 / (12 mu) grad p) (per unit volume), orders of
+    /// magnitude below the mass matrix / mu that holds in wide regions and
+    /// for pressures varying on the scale of h; the sum of the two inverses
+    /// (as Cahouet and Chabard's for Brinkman flow) holds in both.
+    struct GapSchur
+    {
+      PC  mass = nullptr, laplace = nullptr;
+      Mat block = nullptr;
+      Vec work = nullptr;
+      ~GapSchur()
+      {
+        PCDestroy(&mass);
+        PCDestroy(&laplace);
+        MatDestroy(&block);
+        VecDestroy(&work);
+      }
+    };
+    PetscErrorCode apply_gap_schur(PC pc, Vec x, Vec y)
+    {
+      void          *context = nullptr;
+      PetscErrorCode e       = PCShellGetContext(pc, &context);
+      if (e != 0)
+        return e;
+      auto *g = static_cast<GapSchur *>(context);
+      if ((e = PCApply(g->mass, x, y)) != 0 || (e = PCApply(g->laplace, x, g->work)) != 0)
+        return e;
+      return VecAXPY(y, -1.0, g->work); // both parts of the (negative) Schur complement's inverse
+    }
+
+    /// PETSc objects released however the solve ends.
+    struct Objects
+    {
+      KSP ksp = nullptr;
+      IS  u = nullptr, p = nullptr;
+      ~Objects()
+      {
+        KSPDestroy(&ksp);
+        ISDestroy(&u);
+        ISDestroy(&p);
+      }
+    };
+  } // namespace
+
+  std::string block_solver_name(bool gap_schur)
+  {
+    return gap_schur ? "FGMRES + field-split Schur (BoomerAMG on velocity; Schur: pressure mass + thin-gap Laplacian)"
+                     : "FGMRES + field-split Schur (BoomerAMG on velocity, pressure mass on Schur)";
+  }
+
+  unsigned solve_block_system(Mat system, Mat preconditioner, Mat gap_laplace, Vec rhs, Vec solution,
+                              const std::vector<PetscInt> &velocity, const std::vector<PetscInt> &pressure,
+                              const BlockSolverSettings &settings)
+  {
+    MPI_Comm comm;
+    check_petsc(PetscObjectGetComm(reinterpret_cast<PetscObject>(system), &comm), "PetscObjectGetComm");
+    int rank = 0;
+    MPI_Comm_rank(comm, &rank);
+    Objects o;
+    PC      pc;
+    check_petsc(KSPCreate(comm, &o.ksp), "KSPCreate");
+    check_petsc(KSPSetOptionsPrefix(o.ksp, "rectify_"), "KSPSetOptionsPrefix"); // before the splits: they inherit it
+    check_petsc(KSPSetOperators(o.ksp, system, preconditioner), "KSPSetOperators");
+    check_petsc(KSPSetType(o.ksp, KSPFGMRES), "KSPSetType");
+    check_petsc(KSPGMRESSetRestart(o.ksp, 300), "KSPGMRESSetRestart");
+    check_petsc(KSPSetTolerances(o.ksp, settings.tolerance, 1e-300, 1e10, static_cast<PetscInt>(settings.max_iterations)),
+                "KSPSetTolerances");
+    check_petsc(KSPGetPC(o.ksp, &pc), "KSPGetPC");
+    check_petsc(PCSetType(pc, PCFIELDSPLIT), "PCSetType");
+    check_petsc(ISCreateGeneral(comm, static_cast<PetscInt>(velocity.size()), velocity.data(), PETSC_COPY_VALUES, &o.u),
+                "ISCreateGeneral");
+    check_petsc(ISCreateGeneral(comm, static_cast<PetscInt>(pressure.size()), pressure.data(), PETSC_COPY_VALUES, &o.p),
+                "ISCreateGeneral");
+    check_petsc(PCFieldSplitSetIS(pc, "u", o.u), "PCFieldSplitSetIS");
+    check_petsc(PCFieldSplitSetIS(pc, "p", o.p), "PCFieldSplitSetIS");
+    check_petsc(PCFieldSplitSetType(pc, PC_COMPOSITE_SCHUR), "PCFieldSplitSetType");
+    check_petsc(PCFieldSplitSetSchurFactType(pc, PC_FIELDSPLIT_SCHUR_FACT_UPPER), "SchurFactType");
+    check_petsc(PCFieldSplitSetSchurPre(pc, PC_FIELDSPLIT_SCHUR_PRE_A11, nullptr), "SchurPre");
+    const std::vector<std::pair<const char *, const char *>> defaults{
+      {"-rectify_fieldsplit_u_ksp_type", "preonly"},
+      {"-rectify_fieldsplit_u_pc_type", "hypre"},
+      {"-rectify_fieldsplit_u_pc_hypre_type", "boomeramg"},
+      {"-rectify_fieldsplit_u_pc_hypre_boomeramg_strong_threshold", "0.5"},
+      // cheap 3D hierarchies: aggressive coarsening, sparse interpolation
+      {"-rectify_fieldsplit_u_pc_hypre_boomeramg_coarsen_type", "HMIS"},
+      {"-rectify_fieldsplit_u_pc_hypre_boomeramg_interp_type", "ext+i"},
+      {"-rectify_fieldsplit_u_pc_hypre_boomeramg_P_max", "4"},
+      {"-rectify_fieldsplit_u_pc_hypre_boomeramg_agg_nl", "1"},
+      {"-rectify_fieldsplit_p_ksp_type", "preonly"},
+      {"-rectify_fieldsplit_p_pc_type", "jacobi"},
+      {"-rectify_gap_pc_hypre_boomeramg_strong_threshold", "0.5"},
+      {"-rectify_gap_pc_hypre_boomeramg_coarsen_type", "HMIS"},
+      {"-rectify_gap_pc_hypre_boomeramg_interp_type", "ext+i"},
+      {"-rectify_gap_pc_hypre_boomeramg_P_max", "4"}};
+    for (const auto &[key, value] : defaults)
+      {
+        PetscBool given = PETSC_FALSE; // PETSC_OPTIONS may override each default
+        check_petsc(PetscOptionsHasName(nullptr, nullptr, key, &given), "PetscOptionsHasName");
+        if (!given)
+          check_petsc(PetscOptionsSetValue(nullptr, key, value), "PetscOptionsSetValue");
+      }
+    check_petsc(KSPSetFromOptions(o.ksp), "KSPSetFromOptions");
+    GapSchur gap;
+    if (gap_laplace != nullptr)
+      {
+        // The field split exists after set-up; then its Schur solver's
+        // preconditioner becomes the sum of the two inverses.
+        check_petsc(KSPSetUp(o.ksp), "KSPSetUp");
+        KSP     *sub   = nullptr;
+        PetscInt n_sub = 0;
+        check_petsc(PCFieldSplitGetSubKSP(pc, &n_sub, &sub), "PCFieldSplitGetSubKSP");
+        KSP schur_ksp = sub[1];
+        PetscFree(sub);
+        Mat schur_operator, a11;
+        check_petsc(KSPGetOperators(schur_ksp, &schur_operator, &a11), "KSPGetOperators");
+        check_petsc(MatCreateSubMatrix(gap_laplace, o.p, o.p, MAT_INITIAL_MATRIX, &gap.block), "MatCreateSubMatrix");
+        check_petsc(PCCreate(comm, &gap.mass), "PCCreate");
+        check_petsc(PCSetType(gap.mass, PCJACOBI), "PCSetType");
+        check_petsc(PCSetOperators(gap.mass, a11, a11), "PCSetOperators");
+        check_petsc(PCSetUp(gap.mass), "PCSetUp (mass)");
+        check_petsc(PCCreate(comm, &gap.laplace), "PCCreate");
+        check_petsc(PCSetOptionsPrefix(gap.laplace, "rectify_gap_"), "PCSetOptionsPrefix");
+        check_petsc(PCSetType(gap.laplace, PCHYPRE), "PCSetType");
+        check_petsc(PCHYPRESetType(gap.laplace, "boomeramg"), "PCHYPRESetType");
+        check_petsc(PCSetOperators(gap.laplace, gap.block, gap.block), "PCSetOperators");
+        check_petsc(PCSetFromOptions(gap.laplace), "PCSetFromOptions");
+        check_petsc(PCSetUp(gap.laplace), "PCSetUp (gap Laplacian)");
+        check_petsc(MatCreateVecs(gap.block, &gap.work, nullptr), "MatCreateVecs");
+        PC schur_pc;
+        check_petsc(KSPGetPC(schur_ksp, &schur_pc), "KSPGetPC");
+        check_petsc(PCSetType(schur_pc, PCSHELL), "PCSetType (shell)");
+        check_petsc(PCShellSetContext(schur_pc, &gap), "PCShellSetContext");
+        check_petsc(PCShellSetApply(schur_pc, apply_gap_schur), "PCShellSetApply");
+      }
+    double initial_norm = 1;
+    if (settings.verbose && rank == 0)
+      check_petsc(KSPMonitorSet(o.ksp, report_progress, &initial_norm, nullptr), "KSPMonitorSet");
+    check_petsc(KSPSolve(o.ksp, rhs, solution), "KSPSolve");
+    KSPConvergedReason reason;
+    PetscInt           its;
+    check_petsc(KSPGetConvergedReason(o.ksp, &reason), "KSPGetConvergedReason");
+    check_petsc(KSPGetIterationNumber(o.ksp, &its), "KSPGetIterationNumber");
+    if (reason < 0)
+      throw std::runtime_error("the Stokes solver did not converge: " + block_solver_name(gap_laplace != nullptr) +
+                               ", " + std::to_string(its) + " iterations, PETSc reason " + std::to_string(reason) +
+                               " ([flow] tolerance = " + format_number(settings.tolerance) +
+                               ", max_iterations = " + std::to_string(settings.max_iterations) + ")");
+    return static_cast<unsigned>(its);
+  }
+} // namespace rectify::stokes

@@ -1,0 +1,38 @@
+// The iterative solver for the (scaled) Stokes saddle-point system, in PETSc
+// alone: FGMRES with PETSc's field split (upper block-triangular Schur
+// factorisation), one hypre BoomerAMG V-cycle on the velocity block, and on
+// the Schur complement either the pressure mass matrix / mu ("mass") or the
+// sum of its inverse and a thin-gap Laplacian's ("gap"). Every default can be
+// overridden through PETSC_OPTIONS with the prefix -rectify_ (velocity split
+// fieldsplit_u_, Schur split fieldsplit_p_, gap Laplacian's AMG gap_).
+#pragma once
+
+#include <petscmat.h>
+#include <petscvec.h>
+
+#include <string>
+#include <vector>
+
+namespace rectify::stokes
+{
+  struct BlockSolverSettings
+  {
+    double tolerance      = 1e-11; ///< relative residual
+    long   max_iterations = 2000;
+    bool   verbose        = false; ///< progress every 20 iterations on stderr (rank 0)
+  };
+
+  /// Solves system x = rhs. `preconditioner` is the system matrix with the
+  /// (negative) scaled pressure mass matrix in the zero pressure block;
+  /// `gap_laplace`, if not null, the (positive) scaled thin-gap Laplacian in
+  /// the pressure block of a matrix of the system's size. `velocity` and
+  /// `pressure` are this process's DoF indices of each field. Returns the
+  /// number of iterations; throws std::runtime_error naming the solver, the
+  /// iterations and PETSc's reason if it does not converge.
+  unsigned solve_block_system(Mat system, Mat preconditioner, Mat gap_laplace, Vec rhs, Vec solution,
+                              const std::vector<PetscInt> &velocity, const std::vector<PetscInt> &pressure,
+                              const BlockSolverSettings &settings);
+
+  /// The solver's one-line description for outputs.
+  std::string block_solver_name(bool gap_schur);
+} // namespace rectify::stokes
