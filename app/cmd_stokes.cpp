@@ -13,6 +13,7 @@
 #include "maps/resistance_map.h"
 #include "mesher/mesher.h"
 #include "stokes_solver/stokes.h"
+#include "stokes_solver/thin_gap.h"
 
 namespace rectify::app
 {
@@ -55,6 +56,15 @@ namespace rectify::app
               {"assembly_time_s", r.assembly_time_s},
               {"solve_time_s", r.solve_time_s},
               {"wall_time_s", r.wall_time_s}};
+    }
+
+    /// Thin-gap (Reynolds equation) theory for the same valve, shape as the
+    /// mesher samples it, closed where the mesher closes it; grid 10 um.
+    double thin_gap_R(const mesher::MeshParameters &mp, const mesher::MeshInfo &info, double opening, double mu)
+    {
+      const mesher::SampledShape shape = mp.sampled_shape();
+      return stokes::thin_gap_valve_R(mp.geometry, [&](double x) { return shape(x); }, opening, info.closed_to_m,
+                                      mu, 10e-6);
     }
 
     void stokes_command(const StokesOptions &o)
@@ -102,6 +112,7 @@ namespace rectify::app
       summary["reynolds_gap_exit"] = 2 * rho * Q / ((2 * g.reed_length_m + g.reed_width_m) * mu);
       summary["mesh"] = mesher::to_json(valve.info);
       summary["equations"] = o.navier_stokes ? "navier-stokes" : "stokes";
+      summary["R_thin_gap_Pa_s_per_m3"] = thin_gap_R(mp, valve.info, opening, mu);
       summary["stokes_R_Pa_s_per_m3"] = r.stokes_R_Pa_s_per_m3;
       if (o.navier_stokes)
         summary["inertia_shift_rel"] = r.R_pressure_Pa_s_per_m3 / r.stokes_R_Pa_s_per_m3 - 1;
@@ -168,7 +179,8 @@ namespace rectify::app
                   fp.settings.tolerance}}};
       const std::vector<std::string> columns{"opening_m", "R_Pa_s_per_m3", "R_dissipation_Pa_s_per_m3",
                                              "reed_force_N", "A_eff_m2", "pressure_drop_Pa",
-                                             "mass_balance_rel_error", "n_dofs", "iterations", "wall_time_s"};
+                                             "mass_balance_rel_error", "n_dofs", "iterations", "wall_time_s",
+                                             "R_thin_gap_Pa_s_per_m3"};
       std::string header;
       for (const auto &c : columns)
         header += (header.empty() ? "" : ",") + c;
@@ -201,7 +213,8 @@ namespace rectify::app
           const std::vector<double> row{x, r.R_pressure_Pa_s_per_m3, r.R_dissipation_Pa_s_per_m3,
                                         r.reed_force_N[2], r.A_eff_m2, r.inlet_pressure_Pa - r.outlet_pressure_Pa,
                                         r.mass_balance_rel_error, static_cast<double>(r.n_dofs),
-                                        static_cast<double>(r.iterations), r.wall_time_s};
+                                        static_cast<double>(r.iterations), r.wall_time_s,
+                                        thin_gap_R(mp, valve.info, x, fp.fluid.viscosity_Pa_s)};
           done[x] = row;
           if (!root)
             continue;
@@ -242,6 +255,7 @@ namespace rectify::app
                     "R [Pa s/m^3]", true, true,
                     {{out / "map-points.csv", "opening_m", "R_Pa_s_per_m3", "Stokes, mean pressures", "linespoints", 1e6, 1},
                      {out / "map-points.csv", "opening_m", "R_dissipation_Pa_s_per_m3", "Stokes, dissipation", "points", 1e6, 1},
+                     {out / "map-points.csv", "opening_m", "R_thin_gap_Pa_s_per_m3", "thin-gap (Reynolds) theory", "lines", 1e6, 1},
                      {out / "thesis-fit.csv", "opening_m", "R_Pa_s_per_m3", "thesis fit 2.34e11 exp(-0.025 x), floor 4.5e8", "lines", 1e6, 1}}}});
       write_json(out / "summary.json", {{"command", "map-resistance"},
                                         {"rectify_version", RECTIFY_VERSION},
@@ -250,6 +264,7 @@ namespace rectify::app
                                         {"R_Pa_s_per_m3", points.column("R_Pa_s_per_m3")},
                                         {"R_dissipation_Pa_s_per_m3", points.column("R_dissipation_Pa_s_per_m3")},
                                         {"A_eff_m2", points.column("A_eff_m2")},
+                                        {"R_thin_gap_Pa_s_per_m3", points.column("R_thin_gap_Pa_s_per_m3")},
                                         {"mass_balance_rel_error", points.column("mass_balance_rel_error")},
                                         {"n_processes", mpi.size()},
                                         {"settings", fingerprint}});

@@ -53,7 +53,7 @@ namespace rectify::mesher::detail
     long                 Ng, Nr, Na, N;
 
     Layout(const MeshParameters &p, double x_tip)
-      : g(p.geometry), s(p.settings), shape(p.reed_shape(), p.settings.station_spacing_m),
+      : g(p.geometry), s(p.settings), shape(p.sampled_shape()),
         opening(x_tip), L(g.reed_length_m), W(g.reed_width_m), t(g.reed_thickness_m),
         Lp(g.pocket_length_m), Wp(g.pocket_width_m), Hp(g.pocket_height_m), ell(g.port_length_m),
         r(0.5 * g.port_diameter_m), Ng(s.gap_layers), Nr(s.reed_layers), Na(s.above_layers),

@@ -69,6 +69,12 @@ namespace rectify::mesher
     return ReedShape::beam(geometry.reed_length_m, geometry.port_center_x_m);
   }
 
+  SampledShape MeshParameters::sampled_shape() const
+  {
+    const double c = geometry.port_center_x_m, r = 0.5 * geometry.port_diameter_m;
+    return SampledShape(reed_shape(), settings.station_spacing_m, {c - r, c + r});
+  }
+
   double parse_length(const std::string &text, const std::string &what)
   {
     const char *begin = text.c_str();

@@ -16,17 +16,17 @@ namespace rectify::mesher
     std::string           shape = "beam"; ///< "beam" (reference) or "table"
     std::filesystem::path shape_table;    ///< CSV with s_m, phi (shape = "table")
 
-    double size_reed_m      = 0.15e-3; ///< in-plane cell size over the reed and the port
-    double size_far_m       = 0.6e-3;  ///< in-plane cell size far from the reed
+    double size_reed_m      = 0.30e-3; ///< in-plane cell size over the reed and the port
+    double size_far_m       = 0.9e-3;  ///< in-plane cell size far from the reed
     double size_growth      = 0.3;     ///< size grows by this times the distance from the reed
-    double station_spacing_m = 0.1e-3;  ///< the reed's shape is sampled at least this finely
+    double station_spacing_m = 0.25e-3; ///< the reed's shape is sampled at least this finely
     long   port_segments    = 0;       ///< sides of the port polygon (0: from size_reed_m)
-    long   gap_layers       = 3;       ///< element layers across the gap under the reed
-    long   reed_layers      = 2;       ///< layers beside the reed's thickness
-    long   above_layers     = 2;       ///< layers between the reed's top and the slab's top
+    long   gap_layers       = 2;       ///< element layers across the gap under the reed
+    long   reed_layers      = 1;       ///< layers beside the reed's thickness
+    long   above_layers     = 1;       ///< layers between the reed's top and the slab's top
     double slab_margin_m    = 0.15e-3; ///< slab top above the reed's top
     double blend_distance_m = 1.0e-3;  ///< layers relax to uniform over this distance from the reed
-    double port_layer_m     = 0.3e-3;  ///< layer thickness in the port
+    double port_layer_m     = 0.6e-3;  ///< layer thickness in the port
     double gap_cutoff_ratio = 0.05;    ///< gap thinner than this times the opening: closed
     double min_angle_deg    = 25.0;    ///< smallest angle of the floor and wall triangles
     double tetgen_radius_edge_ratio = 1.5; ///< TetGen -q: radius-edge ratio bound
@@ -44,6 +44,9 @@ namespace rectify::mesher
     static MeshParameters from_case(const CaseFile &file);
     /// The reed shape the settings name (reads the table if any).
     ReedShape reed_shape() const;
+    /// The shape as the mesh holds it: sampled on stations at most
+    /// station_spacing_m apart, none grazing the port's edge.
+    SampledShape sampled_shape() const;
   };
 
   /// "100um", "1.21mm", "2e-6", "2e-6m" -> metres. Throws InputError naming

@@ -87,14 +87,21 @@ namespace rectify::mesher
     return (1 - w) * phi_[j - 1] + w * phi_[j];
   }
 
-  SampledShape::SampledShape(const ReedShape &shape, double spacing)
+  SampledShape::SampledShape(const ReedShape &shape, double spacing, const std::vector<double> &avoid)
   {
     const double L = shape.length();
     const auto   n = static_cast<std::size_t>(std::max(2.0, std::ceil(L / spacing - 1e-9)));
+    const double h = L / static_cast<double>(n);
     for (std::size_t j = 0; j <= n; ++j)
       {
-        s_.push_back(j == n ? L : L * static_cast<double>(j) / static_cast<double>(n));
-        phi_.push_back(shape(s_.back()));
+        double s = j == n ? L : L * static_cast<double>(j) / static_cast<double>(n);
+        // An inner station closer than 0.3 h to an avoided point moves to 0.3 h
+        // from it, away from it (stations stay at least 0.4 h apart).
+        for (double a : avoid)
+          if (j > 0 && j < n && std::abs(s - a) < 0.3 * h)
+            s = a + (s >= a ? 0.3 : -0.3) * h;
+        s_.push_back(s);
+        phi_.push_back(shape(s));
       }
     for (std::size_t j = 1; j <= n; ++j)
       for (int k = 1; k < 50; ++k)

@@ -41,7 +41,10 @@ namespace rectify::mesher
   class SampledShape
   {
   public:
-    SampledShape(const ReedShape &shape, double spacing);
+    /// Stations spaced evenly at most `spacing` apart, except that none lies
+    /// within 0.3 spacing of a point in `avoid` (the mesher's port edges: a
+    /// station line grazing the port would leave thin floor triangles).
+    SampledShape(const ReedShape &shape, double spacing, const std::vector<double> &avoid = {});
     double                     operator()(double s) const; ///< for s in [0, L]; L beyond
     const std::vector<double> &stations() const { return s_; }
     const std::vector<double> &values() const { return phi_; }

@@ -13,6 +13,7 @@
 #include "mesher/test_geometries.h"
 #include "tests/cli_helpers.h"
 #include "stokes_solver/stokes.h"
+#include "stokes_solver/thin_gap.h"
 
 using namespace rectify;
 using namespace rectify::stokes;
@@ -244,4 +245,42 @@ TEST(Stokes, NavierStokesShiftMatchesTheEnergyBalance)
       EXPECT_LE(r.newton_iterations, 5u) << h;
       EXPECT_LT(r.mass_balance_rel_error, 1e-8);
     }
+}
+
+// Thin-gap theory's finite volumes (the independent estimate beside the
+// Stokes R(x)): radial flow between discs, 6 mu ln(r2/r1) / (pi h^3), with
+// a staircase port and rim: the error falls about linearly with the spacing.
+TEST(ThinGap, RadialFlowBetweenDiscs)
+{
+  const double r1 = 1.5875e-3, r2 = 4e-3, h = 10e-6, mu = 0.0386;
+  const double exact = 6 * mu * std::log(r2 / r1) / (M_PI * h * h * h);
+  double       previous = 1, signed_error[2] = {};
+  for (double d : {r1 / 10, r1 / 20, r1 / 40, r1 / 80})
+    {
+      ThinGapProblem p;
+      p.x0 = p.y0 = -r2 - 2 * d, p.x1 = p.y1 = r2 + 2 * d;
+      p.spacing        = d;
+      p.viscosity_Pa_s = mu;
+      p.height         = [&](double, double) { return h; };
+      p.kind           = [&](double x, double y) {
+        const double r = std::hypot(x, y);
+        return r < r1 ? GapCell::source : r < r2 ? GapCell::open : GapCell::sink;
+      };
+      signed_error[0]    = signed_error[1];
+      signed_error[1]    = solve_thin_gap(p).R_Pa_s_per_m3 / exact - 1;
+      const double error = std::abs(signed_error[1]);
+      std::printf("thin gap, spacing r1/%.0f: R error %.3f %%\n", r1 / d, 100 * error);
+      EXPECT_LT(error, 0.75 * previous) << d;
+      previous = error;
+    }
+  EXPECT_LT(previous, 0.01);
+  // Richardson extrapolation from the two finest (as thin_gap_valve_R does)
+  EXPECT_LT(std::abs(2 * signed_error[1] - signed_error[0]), 2e-3);
+  // the valve: h = x phi(s) gives R - R_port ~ x^-3 exactly
+  const ValveGeometry g;
+  const auto phi  = [](double x) { return 0.2 + x / 6.1e-3; };
+  const double port = 128 * mu * g.port_length_m / (M_PI * std::pow(g.port_diameter_m, 4));
+  const double a = thin_gap_valve_R(g, phi, 5e-6, 1e-3, mu, 50e-6) - port;
+  const double b = thin_gap_valve_R(g, phi, 10e-6, 1e-3, mu, 50e-6) - port;
+  EXPECT_NEAR(a / b, 8.0, 1e-6);
 }
