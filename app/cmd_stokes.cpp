@@ -123,9 +123,10 @@ namespace rectify::app
                     summary["reynolds"].get<double>(), summary["reynolds_gap_exit"].get<double>(),
                     r.R_pressure_Pa_s_per_m3, r.stokes_R_Pa_s_per_m3,
                     100 * (r.R_pressure_Pa_s_per_m3 / r.stokes_R_Pa_s_per_m3 - 1), r.newton_iterations);
-      std::printf("opening %s m: R = %.6e Pa s/m^3 (dissipation %.6e), dp = %.6g Pa, reed force %.6g N, "
-                  "A_eff = %.6g m^2, mass balance %.1e, %zu DoFs, %s, %u iterations, %.1f s\n",
+      std::printf("opening %s m: R = %.6e Pa s/m^3 (dissipation %.6e; thin-gap theory %.6e), dp = %.6g Pa, "
+                  "reed force %.6g N, A_eff = %.6g m^2, mass balance %.1e, %zu DoFs, %s, %u iterations, %.1f s\n",
                   format_number(opening).c_str(), r.R_pressure_Pa_s_per_m3, r.R_dissipation_Pa_s_per_m3,
+                  summary["R_thin_gap_Pa_s_per_m3"].get<double>(),
                   r.inlet_pressure_Pa - r.outlet_pressure_Pa, r.reed_force_N[2], r.A_eff_m2,
                   r.mass_balance_rel_error, r.n_dofs, r.solver.c_str(), r.iterations, r.wall_time_s);
     }
@@ -253,10 +254,10 @@ namespace rectify::app
       render_plot(out / "resistance-map",
                   {{"Valve resistance R(x): Stokes flow vs the thesis's fit (Fig. 3.7)", "tip opening [um]",
                     "R [Pa s/m^3]", true, true,
-                    {{out / "map-points.csv", "opening_m", "R_Pa_s_per_m3", "Stokes, mean pressures", "linespoints", 1e6, 1},
-                     {out / "map-points.csv", "opening_m", "R_dissipation_Pa_s_per_m3", "Stokes, dissipation", "points", 1e6, 1},
-                     {out / "map-points.csv", "opening_m", "R_thin_gap_Pa_s_per_m3", "thin-gap (Reynolds) theory", "lines", 1e6, 1},
-                     {out / "thesis-fit.csv", "opening_m", "R_Pa_s_per_m3", "thesis fit 2.34e11 exp(-0.025 x), floor 4.5e8", "lines", 1e6, 1}}}});
+                    {{out / "map-points.csv", "opening_m", "R_Pa_s_per_m3", "Stokes (pressures)", "linespoints", 1e6, 1},
+                     {out / "map-points.csv", "opening_m", "R_dissipation_Pa_s_per_m3", "Stokes (dissipation)", "points", 1e6, 1},
+                     {out / "map-points.csv", "opening_m", "R_thin_gap_Pa_s_per_m3", "thin-gap theory", "lines", 1e6, 1},
+                     {out / "thesis-fit.csv", "opening_m", "R_Pa_s_per_m3", "thesis fit (Fig. 3.7)", "lines", 1e6, 1}}}});
       write_json(out / "summary.json", {{"command", "map-resistance"},
                                         {"rectify_version", RECTIFY_VERSION},
                                         {"case", o.case_path},

@@ -7,6 +7,8 @@
 #   loaded/trace-1420Hz            the phase lag of Fig. 5.5
 #   stiffness                      the reed's stiffness, shape and modes (sec. 3.1.3)
 #   mesh-100um                     the valve's fluid mesh at 100 um tip opening (VTU, msh, quality)
+#   flow-100um                     Stokes flow at 100 um: R, force on the reed, thin-gap theory, VTU
+#   (the whole R(x) map: mpirun --allow-run-as-root -np 2 build/bin/rectify map-resistance --out runs/R-map, ~11 min)
 # Interrupted? Run it again: finished sweep points are kept and not redone.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -23,4 +25,5 @@ $rectify sweep --scenario loaded --from 10 --to 3500 --n 100 --spacing linear \
 $rectify simulate --scenario loaded --frequency 1420 --cycles 300 --out $out/loaded/trace-1420Hz
 $rectify stiffness --out $out/stiffness
 $rectify mesh --opening 100um --out $out/mesh-100um
+$rectify stokes --opening 100um --out $out/flow-100um
 echo "reference case done: see $out/*/*/summary.json and the PNG plots beside them"

@@ -606,7 +606,17 @@ namespace rectify::stokes
             assemble(&state, false);
             r.assembly_time_s += seconds_since(step_start);
             step_start = Clock::now();
-            linear_solve();
+            try
+              {
+                linear_solve();
+              }
+            catch (const std::runtime_error &e)
+              {
+                throw std::runtime_error(std::string(e.what()) + " in Newton step " +
+                                         std::to_string(r.newton_iterations + 1) +
+                                         " of Navier-Stokes: the Schur preconditioner ignores convection; at "
+                                         "higher Reynolds numbers use [flow] solver = \"direct\"");
+              }
             r.solve_time_s += seconds_since(step_start);
             physical();
             evaluate();

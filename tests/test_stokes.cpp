@@ -178,14 +178,16 @@ TEST(Stokes, BadInputIsRejected)
 }
 
 // `rectify map-resistance`: a valid map the system model reads; a run cut
-// short continues where it stopped (here: its last row removed).
+// short continues where it stopped (here: its last row removed); a solver
+// that does not converge stops the run with the finished openings kept.
 TEST(Stokes, ResistanceMapIsValidAndResumable)
 {
   using namespace rectify::test_support;
   const auto dir = scratch("stokes_map");
-  write_file_atomic(dir / "coarse.toml", "[mesh]\nsize_reed_m = 0.5e-3\nsize_far_m = 1.5e-3\n"
-                                         "station_spacing_m = 0.4e-3\ngap_layers = 2\nreed_layers = 1\n"
-                                         "above_layers = 1\nport_layer_m = 1e-3\n[flow]\nsolver = \"direct\"\n");
+  const std::string coarse = "[mesh]\nsize_reed_m = 0.5e-3\nsize_far_m = 1.5e-3\nstation_spacing_m = 0.4e-3\n"
+                             "gap_layers = 2\nreed_layers = 1\nabove_layers = 1\nport_layer_m = 1e-3\n"
+                             "[flow]\nsolver = \"iterative\"\n";
+  write_file_atomic(dir / "coarse.toml", coarse);
   const std::string cmd = "map-resistance --case " + (dir / "coarse.toml").string() +
                           " --openings 10e-6:500e-6:3 --out " + (dir / "map").string();
   auto first = rectify_cli(cmd);
@@ -204,6 +206,15 @@ TEST(Stokes, ResistanceMapIsValidAndResumable)
   std::string   text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   text.erase(text.find_last_of('\n', text.size() - 2) + 1);
   write_file_atomic(partial, text);
+  // a solver that does not converge (1 iteration allowed): a clear error,
+  // the finished openings kept
+  write_file_atomic(dir / "stalled.toml", coarse + "max_iterations = 1\n");
+  const auto stalled = rectify_cli("map-resistance --case " + (dir / "stalled.toml").string() +
+                                   " --openings 10e-6:500e-6:3 --out " + (dir / "map").string());
+  EXPECT_NE(stalled.exit_code, 0);
+  EXPECT_NE(stalled.output.find("did not converge"), std::string::npos) << stalled.output;
+  std::ifstream kept(partial);
+  EXPECT_EQ(std::string((std::istreambuf_iterator<char>(kept)), std::istreambuf_iterator<char>()), text);
   auto again = rectify_cli(cmd);
   ASSERT_EQ(again.exit_code, 0) << again.output;
   EXPECT_NE(again.output.find("[3/3]"), std::string::npos) << again.output;
