@@ -295,3 +295,20 @@ TEST(ThinGap, RadialFlowBetweenDiscs)
   const double b = thin_gap_valve_R(g, phi, 10e-6, 1e-3, mu, 50e-6) - port;
   EXPECT_NEAR(a / b, 8.0, 1e-6);
 }
+
+// The command's own inputs: named in the error, nothing written.
+TEST(Stokes, BadCommandLineIsRejectedBeforeAnyOutput)
+{
+  using namespace rectify::test_support;
+  const auto dir = scratch("stokes_cli");
+  for (const std::string bad : {"--opening 100um --flow-rate -1e-6", "--opening 100um --flow-rate nan",
+                                "--opening -5um"})
+    {
+      const auto r = rectify_cli("stokes " + bad + " --no-vtu --out " + (dir / "out").string());
+      EXPECT_EQ(r.exit_code, 2) << bad << "\n" << r.output;
+      EXPECT_NE(r.output.find(bad.find("flow-rate") != std::string::npos ? "--flow-rate" : "--opening"),
+                std::string::npos)
+        << r.output;
+      EXPECT_FALSE(std::filesystem::exists(dir / "out")) << bad;
+    }
+}
