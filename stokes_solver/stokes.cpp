@@ -587,7 +587,6 @@ namespace rectify::stokes
     physical();
     evaluate();
     r.stokes_R_Pa_s_per_m3              = r.R_pressure_Pa_s_per_m3;
-    r.stokes_kinetic_energy_flux_W     = r.kinetic_energy_flux_W;
     r.stokes_R_gradient_dissipation_Pa_s_per_m3 = r.R_gradient_dissipation_Pa_s_per_m3;
 
     // Navier-Stokes: Newton's method from the Stokes flow.

@@ -53,7 +53,6 @@ namespace rectify::stokes
     std::string solver; ///< "direct (MUMPS)" or "FGMRES + ..."
     unsigned    iterations = 0; ///< linear solver iterations, summed over Newton steps
     double      stokes_R_Pa_s_per_m3 = 0; ///< R (mean pressures) of the Stokes flow; = R without --navier-stokes
-    double      stokes_kinetic_energy_flux_W = 0;     ///< the Stokes flow's kinetic_energy_flux_W
     double      stokes_R_gradient_dissipation_Pa_s_per_m3 = 0; ///< the Stokes flow's R_gradient_dissipation_Pa_s_per_m3
     unsigned    newton_iterations    = 0; ///< Navier-Stokes: Newton steps after the Stokes solve
     double      setup_time_s = 0, assembly_time_s = 0, solve_time_s = 0, wall_time_s = 0;
