@@ -1,0 +1,142 @@
+#include "diagnosis/measured_run.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <regex>
+#include <sstream>
+
+#include "common/case_file.h"
+#include "common/io.h"
+
+namespace rectify::diagnosis
+{
+  namespace
+  {
+    /// Known quantities: the column name's stem and the one unit accepted.
+    struct Quantity
+    {
+      const char *stem;
+      const char *column;
+    };
+    constexpr Quantity known[] = {{"time", "time_s"},
+                                  {"current", "current_A"},
+                                  {"voltage", "voltage_V"},
+                                  {"outlet_pressure", "outlet_pressure_Pa"},
+                                  {"chamber_pressure", "chamber_pressure_Pa"},
+                                  {"outlet_valve", "outlet_valve_m"},
+                                  {"strain", "strain"},
+                                  {"actuator_position", "actuator_position_m"},
+                                  {"actuator_velocity", "actuator_velocity_m_per_s"}};
+    constexpr std::size_t min_rows = 20;
+  } // namespace
+
+  const std::vector<double> &MeasuredRun::signal(const std::string &column) const
+  {
+    const auto it = signals.find(column);
+    if (it == signals.end())
+      throw InputError("'" + source + "': no column '" + column + "'");
+    return it->second;
+  }
+
+  const std::string &MeasuredRun::drive_column() const
+  {
+    static const std::string current = "current_A", voltage = "voltage_V";
+    return has(current) ? current : voltage;
+  }
+
+  double MeasuredRun::drive_frequency_Hz() const
+  {
+    const auto  &u  = signal(drive_column());
+    const auto [lo, hi] = std::minmax_element(u.begin(), u.end());
+    const double mid = 0.5 * (*lo + *hi), band = 0.1 * (*hi - *lo);
+    // Upward crossings of mid + band after having been below mid - band.
+    std::vector<double> ups;
+    bool                below = false;
+    for (std::size_t i = 1; i < u.size(); ++i)
+      {
+        below = below || u[i - 1] < mid - band;
+        if (below && u[i - 1] < mid + band && u[i] >= mid + band)
+          {
+            const double w = (mid + band - u[i - 1]) / (u[i] - u[i - 1]);
+            ups.push_back(time_s[i - 1] + w * (time_s[i] - time_s[i - 1]));
+            below = false;
+          }
+      }
+    if (!(*hi > *lo) || ups.size() < 2)
+      throw InputError("'" + source + "': the drive (" + drive_column() +
+                       ") shows fewer than two cycles: too short a record, or give the pumping frequency");
+    return static_cast<double>(ups.size() - 1) / (ups.back() - ups.front());
+  }
+
+  MeasuredRun MeasuredRun::parse(const std::string &text, const std::string &source, double frequency_Hz,
+                                 double min_cycles)
+  {
+    const CsvData data = parse_csv(text, source); // malformed or non-finite cells: file, line, column
+    MeasuredRun   run;
+    run.source = source;
+    for (std::size_t c = 0; c < data.columns.size(); ++c)
+      {
+        const std::string &name  = data.columns[c];
+        const Quantity    *match = nullptr;
+        // the expected name, the bare stem, or the stem with another unit
+        // (a short token, or token_per_token: time_ms, outlet_pressure_psi)
+        static const std::regex unit("[A-Za-z]{1,4}(_per_[A-Za-z]{1,4})?");
+        for (const auto &q : known)
+          {
+            const std::string stem = q.stem;
+            if (name == q.column || name == stem ||
+                (name.rfind(stem + "_", 0) == 0 && std::regex_match(name.substr(stem.size() + 1), unit)))
+              match = &q;
+          }
+        if (match == nullptr)
+          {
+            run.ignored_columns.push_back(name);
+            continue;
+          }
+        if (name != match->column)
+          throw InputError("'" + source + "', column '" + name + "': " + match->stem + " must be given as '" +
+                           match->column + "' (SI units, named in the column)");
+        if (run.signals.count(name) > 0)
+          throw InputError("'" + source + "': column '" + name + "' appears twice");
+        std::vector<double> values;
+        for (const auto &row : data.rows)
+          values.push_back(row[c]);
+        run.signals[name] = std::move(values);
+      }
+    for (const char *required : {"time_s", "outlet_pressure_Pa"})
+      if (!run.has(required))
+        throw InputError("'" + source + "': missing column '" + required + "'");
+    if (!run.has("current_A") && !run.has("voltage_V"))
+      throw InputError("'" + source + "': missing the drive: a column 'current_A' or 'voltage_V'");
+    if (data.rows.size() < min_rows)
+      throw InputError("'" + source + "': " + std::to_string(data.rows.size()) + " rows, too short a record (at least " +
+                       std::to_string(min_rows) + ")");
+    run.time_s = run.signals.at("time_s");
+    run.signals.erase("time_s");
+    for (std::size_t i = 1; i < run.time_s.size(); ++i)
+      if (!(run.time_s[i] > run.time_s[i - 1]))
+        throw InputError("'" + source + "' data row " + std::to_string(i + 1) + ", column 'time_s': " +
+                         format_number(run.time_s[i]) + (run.time_s[i] == run.time_s[i - 1] ? " repeats" : " comes after") +
+                         " " + format_number(run.time_s[i - 1]) + ": times must increase strictly");
+    if (min_cycles > 0)
+      {
+        const double f = frequency_Hz > 0 ? frequency_Hz : run.drive_frequency_Hz();
+        if (run.duration_s() * f < min_cycles)
+          throw InputError("'" + source + "': " + format_number(run.duration_s()) + " s is " +
+                           format_number(run.duration_s() * f) + " pumping cycles at " + format_number(f) +
+                           " Hz, too short a record (at least " + format_number(min_cycles) + ")");
+      }
+    return run;
+  }
+
+  MeasuredRun MeasuredRun::read(const std::filesystem::path &path, double frequency_Hz, double min_cycles)
+  {
+    std::ifstream in(path);
+    if (!in)
+      throw InputError("cannot read '" + path.string() + "'");
+    std::stringstream s;
+    s << in.rdbuf();
+    return parse(s.str(), path.string(), frequency_Hz, min_cycles);
+  }
+} // namespace rectify::diagnosis

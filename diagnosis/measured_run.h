@@ -1,0 +1,46 @@
+// A measured time series (one run) as the diagnosis workflow reads it: a CSV
+// whose column names carry their units (issue 4).
+//   required: time_s, current_A or voltage_V, outlet_pressure_Pa
+//   optional: chamber_pressure_Pa, outlet_valve_m, strain,
+//             actuator_position_m, actuator_velocity_m_per_s
+// Other columns are ignored (listed in ignored_columns, for a notice); a
+// known quantity in another unit (time_ms, outlet_pressure_psi, ...) is an
+// error that names the unit expected.
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace rectify::diagnosis
+{
+  struct MeasuredRun
+  {
+    std::string                                source;  ///< the file, for messages
+    std::vector<double>                        time_s;
+    std::map<std::string, std::vector<double>> signals; ///< by column name, every column read
+    std::vector<std::string>                   ignored_columns;
+
+    bool                       has(const std::string &column) const { return signals.count(column) > 0; }
+    const std::vector<double> &signal(const std::string &column) const;
+    /// "current_A" or "voltage_V": the drive.
+    const std::string         &drive_column() const;
+    double                     duration_s() const { return time_s.back() - time_s.front(); }
+
+    /// The pumping frequency from the drive: mean-crossings of the drive
+    /// (hysteresis 10 % of its range) over the record; throws InputError
+    /// (naming the file) if the drive shows fewer than two cycles.
+    double drive_frequency_Hz() const;
+
+    /// Parses and checks: times strictly increasing (unsorted or repeated:
+    /// the row and both times named), every value finite, the required
+    /// columns present, known quantities in their units, at least 20 rows.
+    /// `min_cycles` > 0 with `frequency_Hz` (0: from the drive) also asks
+    /// for that many pumping cycles. Throws InputError naming the file, row
+    /// and column.
+    static MeasuredRun parse(const std::string &text, const std::string &source, double frequency_Hz = 0,
+                             double min_cycles = 2);
+    static MeasuredRun read(const std::filesystem::path &path, double frequency_Hz = 0, double min_cycles = 2);
+  };
+} // namespace rectify::diagnosis
