@@ -114,15 +114,15 @@ namespace rectify::app
       summary["equations"] = o.navier_stokes ? "navier-stokes" : "stokes";
       summary["R_thin_gap_Pa_s_per_m3"] = thin_gap_R(mp, valve.info, opening, mu);
       summary["stokes_R_Pa_s_per_m3"] = r.stokes_R_Pa_s_per_m3;
+      const double shift = r.R_pressure_Pa_s_per_m3 / r.stokes_R_Pa_s_per_m3 - 1;
       if (o.navier_stokes)
-        summary["inertia_shift_rel"] = r.R_pressure_Pa_s_per_m3 / r.stokes_R_Pa_s_per_m3 - 1;
+        summary["inertia_shift_rel"] = shift;
       write_json(out / "summary.json", summary);
       if (o.navier_stokes)
         std::printf("inertia (steady Navier-Stokes, Re %.3g in the port, %.3g at the gap's exit): R = %.6e "
                     "against Stokes %.6e Pa s/m^3 (%+.3f %%), %u Newton steps\n",
                     summary["reynolds"].get<double>(), summary["reynolds_gap_exit"].get<double>(),
-                    r.R_pressure_Pa_s_per_m3, r.stokes_R_Pa_s_per_m3,
-                    100 * (r.R_pressure_Pa_s_per_m3 / r.stokes_R_Pa_s_per_m3 - 1), r.newton_iterations);
+                    r.R_pressure_Pa_s_per_m3, r.stokes_R_Pa_s_per_m3, 100 * shift, r.newton_iterations);
       std::printf("opening %s m: R = %.6e Pa s/m^3 (dissipation %.6e; thin-gap theory %.6e), dp = %.6g Pa, "
                   "reed force %.6g N, A_eff = %.6g m^2, mass balance %.1e, %zu DoFs, %s, %u iterations, %.1f s\n",
                   format_number(opening).c_str(), r.R_pressure_Pa_s_per_m3, r.R_dissipation_Pa_s_per_m3,
@@ -211,14 +211,17 @@ namespace rectify::app
             continue;
           const auto valve = mesher::mesh_valve(mp, x, false);
           const auto r     = stokes::solve_stokes(valve.mesh, fp);
+          if (!root) // the other processes only need to know it is done
+            {
+              done[x] = {};
+              continue;
+            }
           const std::vector<double> row{x, r.R_pressure_Pa_s_per_m3, r.R_dissipation_Pa_s_per_m3,
                                         r.reed_force_N[2], r.A_eff_m2, r.inlet_pressure_Pa - r.outlet_pressure_Pa,
                                         r.mass_balance_rel_error, static_cast<double>(r.n_dofs),
                                         static_cast<double>(r.iterations), r.wall_time_s,
                                         thin_gap_R(mp, valve.info, x, fp.fluid.viscosity_Pa_s)};
           done[x] = row;
-          if (!root)
-            continue;
           const std::string line = csv_row(row);
           checkpoint->append(line);
           char what[160];
