@@ -1,5 +1,8 @@
 #include "common/fluid.h"
 
+#include <algorithm>
+#include <cmath>
+
 namespace rectify
 {
   namespace
@@ -14,6 +17,31 @@ namespace rectify
                   entrained_air_fraction / gas_bulk_modulus); // eq. 3.26
   }
 
+  namespace
+  {
+    double absolute_floor(double p_bias, double p_gauge)
+    {
+      return std::max(p_bias + p_gauge, 0.01 * p_bias);
+    }
+  } // namespace
+
+  double FluidParameters::free_air_compliance_per_volume(double p_gauge) const
+  {
+    if (free_air_fraction == 0.0)
+      return 0.0;
+    const double p = absolute_floor(bias_pressure_Pa, p_gauge);
+    return free_air_fraction * std::pow(bias_pressure_Pa / p, 1.0 / gas_heat_capacity_ratio) /
+           (gas_heat_capacity_ratio * p);
+  }
+
+  double FluidParameters::free_air_volume_change_per_volume(double p_gauge) const
+  {
+    if (free_air_fraction == 0.0)
+      return 0.0;
+    const double p = absolute_floor(bias_pressure_Pa, p_gauge);
+    return free_air_fraction * (1.0 - std::pow(bias_pressure_Pa / p, 1.0 / gas_heat_capacity_ratio));
+  }
+
   FluidParameters FluidParameters::from_case(const CaseFile &f)
   {
     FluidParameters p;
@@ -26,6 +54,8 @@ namespace rectify
     p.gas_heat_capacity_ratio =
       f.real(t, "gas_heat_capacity_ratio", p.gas_heat_capacity_ratio, Bounds::closed(1.0, 5.0 / 3.0));
     p.bias_pressure_Pa = f.real(t, "bias_pressure_Pa", p.bias_pressure_Pa, positive);
+    p.free_air_fraction =
+      f.real(t, "free_air_fraction", p.free_air_fraction, Bounds{0.0, 0.5, true, true});
     return p;
   }
 

@@ -48,7 +48,24 @@ namespace rectify::system
     return d;
   }
 
-  double Drive::current_A(double t) const
+  Drive Drive::from_samples(std::vector<double> times_s, std::vector<double> values,
+                            double frequency_Hz, bool voltage, std::string source)
+  {
+    Drive d = sine(frequency_Hz, 0.0, 0.0);
+    if (times_s.size() != values.size() || times_s.size() < 2)
+      throw InputError("drive record '" + source + "': needs at least two samples, one value per time");
+    for (std::size_t i = 1; i < times_s.size(); ++i)
+      if (!(times_s[i] > times_s[i - 1]))
+        throw InputError("drive record '" + source + "': times do not increase at sample " +
+                         std::to_string(i + 1));
+    d.times_    = std::move(times_s);
+    d.currents_ = std::move(values);
+    d.voltage_  = voltage;
+    d.source_   = std::move(source);
+    return d;
+  }
+
+  double Drive::value(double t) const
   {
     if (times_.empty())
       return bias_ - 0.5 * pp_ * std::cos(2.0 * std::numbers::pi * frequency_ * t);
@@ -56,8 +73,16 @@ namespace rectify::system
       return currents_.front();
     if (t >= times_.back())
       return currents_.back();
-    const auto   it = std::upper_bound(times_.begin(), times_.end(), t);
-    const auto   i  = static_cast<std::size_t>(it - times_.begin()) - 1;
+    std::size_t i = last_ < times_.size() - 1 ? last_ : 0;
+    if (!(times_[i] <= t && t < times_[i + 1]))
+      {
+        if (i + 2 < times_.size() && times_[i + 1] <= t && t < times_[i + 2])
+          ++i;
+        else
+          i = static_cast<std::size_t>(std::upper_bound(times_.begin(), times_.end(), t) -
+                                       times_.begin()) - 1;
+        last_ = i;
+      }
     const double s  = (t - times_[i]) / (times_[i + 1] - times_[i]);
     return currents_[i] + s * (currents_[i + 1] - currents_[i]);
   }

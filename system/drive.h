@@ -1,4 +1,5 @@
-// The coil current I(t) driving the Terfenol-D rod.
+// The drive of the Terfenol-D rod: the coil current I(t), or the coil voltage
+// V(t) (a measured record), which the model turns into a current.
 #pragma once
 
 #include <filesystem>
@@ -17,8 +18,15 @@ namespace rectify::system
     /// strictly increasing times; linear interpolation between rows. Runs
     /// must end within the table (checked by `check_covers`).
     static Drive from_csv(const std::filesystem::path &path, double frequency_Hz);
+    /// A sampled record (times strictly increasing, the same length as
+    /// `values`): coil current [A], or coil voltage [V] if `voltage`.
+    static Drive from_samples(std::vector<double> times_s, std::vector<double> values,
+                              double frequency_Hz, bool voltage, std::string source);
 
-    double current_A(double t) const;
+    /// The drive's value at t: current [A], or voltage [V] for a voltage drive.
+    double value(double t) const;
+    double current_A(double t) const { return value(t); }
+    bool   is_voltage() const { return voltage_; }
     double frequency_Hz() const { return frequency_; }
     /// Throws InputError if the waveform does not cover [0, t_end].
     void check_covers(double t_end) const;
@@ -27,5 +35,7 @@ namespace rectify::system
     double              frequency_ = 0, pp_ = 0, bias_ = 0;
     std::vector<double> times_, currents_; // empty for the sine
     std::string         source_;
+    bool                voltage_ = false;
+    mutable std::size_t last_ = 0; // segment of the last lookup (runs look up increasing times)
   };
 } // namespace rectify::system

@@ -63,6 +63,27 @@ namespace rectify::system
     R_ideal_open = p.valves.ideal_open_resistance_Pa_s_per_m3;
     p_bias       = p.fluid.bias_pressure_Pa;
     out_of_range = maps::parse_out_of_range(p.valves.out_of_range);
+
+    fluid  = p.fluid;
+    V_ch   = V_c;
+    V_h    = A_po * p.cylinder.high_side_fraction * p.cylinder.wetted_length_m;
+    V_l    = A_po * (1.0 - p.cylinder.high_side_fraction) * p.cylinder.wetted_length_m;
+    C_seal = p.cylinder.seal_compliance_m3_per_Pa;
+    R_leak = p.valves.leak_resistance_Pa_s_per_m3;
+    const double Cd = p.valves.orifice_discharge_coefficient;
+    const double P  = p.valves.orifice_perimeter_m > 0 ?
+                        p.valves.orifice_perimeter_m :
+                        std::sqrt(4.0 * M_PI * p.reed.pressure_area_m2); // pi d, pi d^2/4 = A_r
+    orifice_factor = Cd > 0 ? p.fluid.density_kg_per_m3 / (2.0 * Cd * Cd * P * P) : 0.0;
+    L_line         = p.lines.outlet_inertance_Pa_s2_per_m3;
+    coil_dynamics  = p.drive.coil_dynamics == "on";
+    R_coil         = p.transducer.coil_resistance_ohm;
+    L_coil         = p.transducer.coil_inductance_H;
+    F_coulomb      = p.load.coulomb_friction_N;
+    v_friction     = p.load.friction_velocity_scale_m_per_s;
+    const double w2 = 2.0 * M_PI * p.reed.second_mode_frequency_Hz;
+    k_r2 = reed.mass * w2 * w2;
+    b_r2 = 2.0 * p.reed.damping_ratio * std::sqrt(k_r2 * reed.mass);
   }
 
   nlohmann::json ModelConstants::to_json() const
@@ -103,8 +124,53 @@ namespace rectify::system
 
   std::vector<double> Model::initial_state() const
   {
-    return std::vector<double>(state::count, 0.0);
+    std::vector<double> y(n_states(), 0.0);
+    if (drive_.is_voltage() && c_.coil_dynamics)
+      y[state::coil_current] = drive_.value(0.0) / c_.R_coil; // at rest: steady coil
+    return y;
   }
+
+  bool Model::needs_difference_jacobian() const
+  {
+    return c_.fluid.free_air_fraction > 0 || c_.R_leak > 0 || c_.orifice_factor > 0 ||
+           c_.L_line > 0 || (drive_.is_voltage() && c_.coil_dynamics) || c_.F_coulomb > 0 ||
+           c_.k_r2 > 0;
+  }
+
+  double Model::opening(std::size_t v, std::span<const double> y) const
+  {
+    if (c_.k_r2 == 0.0) // one mode: the analytic Jacobian's case
+      return y[v == 0 ? state::outlet_reed_x : state::inlet_reed_x];
+    return v == 0 ? y[state::outlet_reed_x] + y[state::outlet_reed2_x] :
+                    y[state::inlet_reed_x] + y[state::inlet_reed2_x];
+  }
+
+  double Model::current_A(double t, std::span<const double> y) const
+  {
+    if (!drive_.is_voltage())
+      return drive_.value(t);
+    return c_.coil_dynamics ? y[state::coil_current] : drive_.value(t) / c_.R_coil;
+  }
+
+  double Model::stored_volume(int node, double p) const
+  {
+    const double V = node == 0 ? c_.V_ch : node == 1 ? c_.V_h : c_.V_l;
+    const double C = node == 0 ? c_.C_ch : node == 1 ? c_.C_h + c_.C_seal : c_.C_l;
+    return C * p + V * c_.fluid.free_air_volume_change_per_volume(p);
+  }
+
+  namespace
+  {
+    /// Flow q through R q + K q|q| = dp (R > 0, K >= 0), and dq/d(dp).
+    std::pair<double, double> branch_flow(double R, double K, double dp)
+    {
+      if (K == 0.0)
+        return {(1.0 / R) * dp, 1.0 / R}; // as g dp: the thesis model bit for bit
+      const double root = std::sqrt(R * R + 4.0 * K * std::abs(dp));
+      const double q    = 2.0 * dp / (R + root); // stable form of (-R + root) / (2K)
+      return {q, 1.0 / root};                    // 1 / (R + 2 K |q|)
+    }
+  } // namespace
 
   std::vector<double> Model::typical_sizes() const
   {
@@ -117,6 +183,11 @@ namespace rectify::system
     s[state::chamber_p] = s[state::accumulator_p] = s[state::high_p] = s[state::low_p] = p;
     s[state::outlet_volume] = s[state::inlet_volume] = c_.A_pi * x;
     s[state::outlet_pressure_integral] = p * 1e-3;
+    s[state::line_flow]      = c_.A_pi * v;
+    s[state::coil_current]   = 1.0;
+    s[state::outlet_reed2_x] = s[state::inlet_reed2_x] = 0.1 * x;
+    s[state::outlet_reed2_v] = s[state::inlet_reed2_v] = v;
+    s.resize(n_states());
     return s;
   }
 
@@ -127,7 +198,7 @@ namespace rectify::system
       return {closed_[v] ? map_.closed_resistance() : c_.R_ideal_open, 0.0, false};
     if (closed_[v])
       return {map_.closed_resistance(), 0.0, false};
-    return map_.evaluate(y[v == 0 ? state::outlet_reed_x : state::inlet_reed_x]);
+    return map_.evaluate(opening(v, y));
   }
 
   Flows Model::flows(std::span<const double> y) const
@@ -135,20 +206,62 @@ namespace rectify::system
     const double p_ch = y[state::chamber_p], p_acc = y[state::accumulator_p];
     const double p_h = y[state::high_p], p_l = y[state::low_p];
     Flows        f;
-    f.R1             = valve_resistance(0, y).resistance;
-    f.R2             = valve_resistance(1, y).resistance;
-    const double g13 = 1.0 / (f.R1 + c_.R3);
-    const double g24 = 1.0 / (f.R2 + c_.R4);
+    f.R1 = valve_resistance(0, y).resistance;
+    f.R2 = valve_resistance(1, y).resistance;
+    if (c_.R_leak > 0) // a leak path in parallel with each valve
+      {
+        f.R1 = f.R1 * c_.R_leak / (f.R1 + c_.R_leak);
+        f.R2 = f.R2 * c_.R_leak / (f.R2 + c_.R_leak);
+      }
+    // Orifice loss K q|q| through an open reed valve: K = factor / x^2.
+    const auto orifice = [&](std::size_t v) {
+      if (c_.orifice_factor == 0.0 || valves_ == ValveModel::ideal || closed_[v])
+        return 0.0;
+      const double x = std::max(opening(v, y), 1e-9);
+      return c_.orifice_factor / (x * x);
+    };
+    const double K1 = orifice(0), K2 = orifice(1);
     const double g5 = 1.0 / c_.R5, g6 = 1.0 / c_.R6;
-    f.p_junction    = (g24 * p_ch + g5 * p_acc + g6 * p_l) / (g24 + g5 + g6);
-    f.q_outlet      = g13 * (p_ch - p_h);
-    f.q_inlet       = g24 * (f.p_junction - p_ch);
+
+    f.q_outlet = c_.L_line > 0 ? y[state::line_flow] : branch_flow(f.R1 + c_.R3, K1, p_ch - p_h).first;
+    if (K2 == 0.0)
+      {
+        const double g24 = 1.0 / (f.R2 + c_.R4);
+        f.p_junction     = (g24 * p_ch + g5 * p_acc + g6 * p_l) / (g24 + g5 + g6);
+        f.q_inlet        = g24 * (f.p_junction - p_ch);
+      }
+    else
+      { // Kirchhoff at the junction, g5 (p_a - p_acc) + g6 (p_a - p_l) + q_in(p_a - p_ch) = 0,
+        // monotone in p_a: Newton from the linear solution, bracketed.
+        const double g24 = 1.0 / (f.R2 + c_.R4);
+        double       p_a = (g24 * p_ch + g5 * p_acc + g6 * p_l) / (g24 + g5 + g6);
+        double       lo = std::min({p_ch, p_acc, p_l}), hi = std::max({p_ch, p_acc, p_l});
+        for (int it = 0; it < 60; ++it)
+          {
+            const auto [q, dq] = branch_flow(f.R2 + c_.R4, K2, p_a - p_ch);
+            const double F     = g5 * (p_a - p_acc) + g6 * (p_a - p_l) + q;
+            (F > 0 ? hi : lo)  = p_a;
+            double next        = p_a - F / (g5 + g6 + dq);
+            if (!(next > lo && next < hi))
+              next = 0.5 * (lo + hi);
+            if (std::abs(next - p_a) <= 1e-13 * (std::abs(p_a) + c_.p_bias) || hi - lo <= 0)
+              {
+                p_a = next;
+                break;
+              }
+            p_a = next;
+          }
+        f.p_junction = p_a;
+        f.q_inlet    = branch_flow(f.R2 + c_.R4, K2, p_a - p_ch).first;
+      }
     f.q_accumulator = g5 * (f.p_junction - p_acc);
     f.q_low         = g6 * (f.p_junction - p_l);
-    f.p_outlet      = p_ch - f.R1 * f.q_outlet; // = (R1 p_h + R3 p_ch)/(R1 + R3)
-    f.p_inlet       = p_ch + f.R2 * f.q_inlet;  // = (R2 p_a + R4 p_ch)/(R2 + R4)
+    // valve pressure drops: R q + K q|q| (p_o = (R1 p_h + R3 p_ch)/(R1 + R3) when linear)
+    f.p_outlet      = p_ch - f.R1 * f.q_outlet - K1 * f.q_outlet * std::abs(f.q_outlet);
+    f.p_inlet       = p_ch + f.R2 * f.q_inlet + K2 * f.q_inlet * std::abs(f.q_inlet);
     f.outlet_force  = c_.reed.area * (p_ch - f.p_outlet);
     f.inlet_force   = c_.reed.area * (f.p_inlet - p_ch);
+    f.K1            = K1;
     return f;
   }
 
@@ -156,7 +269,7 @@ namespace rectify::system
   {
     using namespace state;
     const Flows  f    = flows(y);
-    const double F_td = c_.force_per_ampere * drive_.current_A(t); // eq. 3.1
+    const double F_td = c_.force_per_ampere * current_A(t, y); // eq. 3.1
 
     ydot[piston_x] = y[piston_v];
     ydot[piston_v] = (F_td - (c_.b_f + c_.b_eff) * y[piston_v] + c_.b_f * y[fluid_v] -
@@ -167,14 +280,19 @@ namespace rectify::system
                      y[chamber_p] * c_.A_pi) /
                     c_.m_f;
     ydot[actuator_x] = y[actuator_v];
+    const double friction =
+      c_.F_coulomb > 0 ? c_.F_coulomb * std::tanh(y[actuator_v] / c_.v_friction) : 0.0;
     ydot[actuator_v] = ((y[high_p] - y[low_p]) * c_.A_po - c_.b_l * y[actuator_v] -
-                        c_.k_l * y[actuator_x]) /
+                        c_.k_l * y[actuator_x] - friction) /
                        c_.m_l;
 
     const std::array<double, 2> force{f.outlet_force, f.inlet_force};
     for (std::size_t v = 0; v < 2; ++v)
       {
-        const std::size_t ix = v == 0 ? outlet_reed_x : inlet_reed_x;
+        const std::size_t ix  = v == 0 ? outlet_reed_x : inlet_reed_x;
+        const std::size_t ix2 = v == 0 ? outlet_reed2_x : inlet_reed2_x;
+        if (c_.k_r2 > 0)
+          ydot[ix2] = ydot[ix2 + 1] = 0.0;
         if (valves_ == ValveModel::ideal || closed_[v])
           {
             ydot[ix] = ydot[ix + 1] = 0.0; // on the seat: held by the seat's reaction
@@ -182,15 +300,35 @@ namespace rectify::system
           }
         ydot[ix]     = y[ix + 1];
         ydot[ix + 1] = reed_acceleration(c_.reed, y[ix], y[ix + 1], force[v]);
+        if (c_.k_r2 > 0)
+          {
+            ydot[ix2]     = y[ix2 + 1];
+            ydot[ix2 + 1] = (force[v] - c_.b_r2 * y[ix2 + 1] - c_.k_r2 * y[ix2]) / c_.reed.mass;
+          }
       }
 
-    ydot[chamber_p]     = (c_.A_pi * y[piston_v] + f.q_inlet - f.q_outlet) / c_.C_ch;
+    // Compliances, with the free air's pressure dependence and the seal.
+    const double C_ch = c_.C_ch + c_.V_ch * c_.fluid.free_air_compliance_per_volume(y[chamber_p]);
+    const double C_h  = c_.C_h + c_.C_seal + c_.V_h * c_.fluid.free_air_compliance_per_volume(y[high_p]);
+    const double C_l  = c_.C_l + c_.V_l * c_.fluid.free_air_compliance_per_volume(y[low_p]);
+    ydot[chamber_p]     = (c_.A_pi * y[piston_v] + f.q_inlet - f.q_outlet) / C_ch;
     ydot[accumulator_p] = f.q_accumulator / c_.C_acc;
-    ydot[high_p]        = (f.q_outlet - c_.A_po * y[actuator_v]) / c_.C_h;
-    ydot[low_p]         = (f.q_low + c_.A_po * y[actuator_v]) / c_.C_l;
+    ydot[high_p]        = (f.q_outlet - c_.A_po * y[actuator_v]) / C_h;
+    ydot[low_p]         = (f.q_low + c_.A_po * y[actuator_v]) / C_l;
     ydot[outlet_volume] = f.q_outlet;
     ydot[inlet_volume]  = f.q_inlet;
     ydot[outlet_pressure_integral] = f.p_outlet;
+
+    if (ydot.size() == thesis_count)
+      return;
+    // Outlet-line inertance: L q' = p_ch - p_h - (R1 + R3) q - K q|q|.
+    ydot[line_flow] = c_.L_line > 0 ?
+                        (y[chamber_p] - y[high_p] - (f.R1 + c_.R3) * f.q_outlet -
+                         f.K1 * f.q_outlet * std::abs(f.q_outlet)) / c_.L_line :
+                        0.0;
+    ydot[coil_current] = drive_.is_voltage() && c_.coil_dynamics ?
+                           (drive_.value(t) - c_.R_coil * y[coil_current]) / c_.L_coil :
+                           0.0;
   }
 
   void Model::jacobian(double, std::span<const double> y, DenseView J) const
@@ -316,7 +454,8 @@ namespace rectify::system
           }
         else
           {
-            g[v] = reed_root(closed_[v], y[ix], v == 0 ? f.outlet_force : f.inlet_force);
+            g[v] = reed_root(closed_[v], closed_[v] ? y[ix] : opening(v, y),
+                             v == 0 ? f.outlet_force : f.inlet_force);
           }
       }
   }
@@ -335,6 +474,11 @@ namespace rectify::system
             closed_[v] = !closed_[v];
             continue;
           }
+        // The seat stops the tip: both modes come to rest at the seat (the
+        // second mode's rebound is not modelled).
+        const std::size_t ix2 = v == 0 ? state::outlet_reed2_x : state::inlet_reed2_x;
+        if (c_.k_r2 > 0)
+          y[ix2] = y[ix2 + 1] = 0.0;
         if (!closed_[v])
           {
             ++n_impacts_;

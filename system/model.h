@@ -75,8 +75,18 @@ namespace rectify::system
       outlet_volume,
       inlet_volume,
       outlet_pressure_integral,
+      // states of the optional effects (docs/diagnosis.md); constant 0 when off
+      line_flow,      ///< flow in the outlet line, with line inertance
+      coil_current,   ///< coil current, with a voltage drive and coil dynamics
+      outlet_reed2_x, ///< second bending mode of each reed
+      outlet_reed2_v,
+      inlet_reed2_x,
+      inlet_reed2_v,
       count
     };
+    /// States of the thesis model alone: a model with no effect on has only
+    /// these (the extra states would dilute CVODE's error norm).
+    inline constexpr std::size_t thesis_count = outlet_pressure_integral + 1;
   } // namespace state
 
   /// Model constants derived from the parameters (eqs. 3.2-3.5, 3.28, 3.29,
@@ -94,6 +104,17 @@ namespace rectify::system
     double R_ideal_open;
     double p_bias; ///< absolute pressure the gauge states are measured from
     maps::OutOfRange out_of_range;
+    // Optional effects (0 = off), see SystemParameters.
+    FluidParameters fluid;         ///< for the free air's pressure-dependent compliance
+    double V_ch, V_h, V_l;         ///< oil volumes of the chamber, high and low sides
+    double C_seal;                 ///< extra high-side compliance
+    double R_leak;                 ///< leak path across each valve
+    double orifice_factor;         ///< rho / (2 Cd^2 P^2): orifice K = factor / x^2
+    double L_line;                 ///< outlet-line inertance
+    bool   coil_dynamics;          ///< integrate the coil current (voltage drive)
+    double R_coil, L_coil;
+    double F_coulomb, v_friction;  ///< output-piston friction F_c tanh(v / v_s)
+    double k_r2, b_r2;             ///< second reed mode (k_r2 = 0: off)
 
     ModelConstants(const SystemParameters &p, Scenario scenario);
     nlohmann::json to_json() const;
@@ -110,6 +131,7 @@ namespace rectify::system
     double q_accumulator;          ///< junction -> accumulator
     double q_low;                  ///< junction -> low side
     double outlet_force, inlet_force; ///< opening pressure force on each reed [N]
+    double K1 = 0;                 ///< outlet valve's orifice coefficient [Pa s^2/m^6]
   };
 
   class Model : public OdeSystem
@@ -118,7 +140,10 @@ namespace rectify::system
     Model(const SystemParameters &parameters, maps::ResistanceMap map, ValveModel valves,
           Scenario scenario, Drive drive);
 
-    std::size_t n_states() const override { return state::count; }
+    std::size_t n_states() const override
+    {
+      return needs_difference_jacobian() ? state::count : state::thesis_count;
+    }
     void        rhs(double t, std::span<const double> y, std::span<double> ydot) const override;
     void        jacobian(double t, std::span<const double> y, DenseView J) const override;
     std::size_t n_roots() const override { return 2; }
@@ -126,6 +151,17 @@ namespace rectify::system
     bool handle_events(double t, std::span<double> y, std::span<const int> found) override;
 
     Flows               flows(std::span<const double> y) const;
+    /// Tip opening of valve v (0 outlet, 1 inlet): first plus second mode.
+    double              opening(std::size_t v, std::span<const double> y) const;
+    /// Coil current: the drive itself, V/R, or the coil state (coil dynamics).
+    double              current_A(double t, std::span<const double> y) const;
+    /// Oil (and free air) volume stored at gauge pressure p on node 0 chamber,
+    /// 1 high side, 2 low side, relative to the bias state: the integral of
+    /// the node's compliance (for the volume balances).
+    double              stored_volume(int node, double p) const;
+    /// True if an optional effect is on: the analytic Jacobian covers only
+    /// the thesis model, so CVODE's difference quotients are used instead.
+    bool                needs_difference_jacobian() const;
     std::vector<double> initial_state() const;
     /// Typical magnitude of each state, for absolute tolerances.
     std::vector<double> typical_sizes() const;

@@ -104,6 +104,15 @@ namespace rectify::system
     p.damping_ratio     = f.real(t, "damping_ratio", p.damping_ratio, non_negative);
     p.pressure_area_m2  = f.real(t, "pressure_area_m2", p.pressure_area_m2, positive);
     p.restitution       = f.real(t, "restitution", p.restitution, Bounds{0.0, 1.0, true, false});
+    p.second_mode_frequency_Hz =
+      f.real(t, "second_mode_frequency_Hz", p.second_mode_frequency_Hz, non_negative);
+    if (p.second_mode_frequency_Hz > 0.0 &&
+        p.second_mode_frequency_Hz <= std::sqrt(p.stiffness_N_per_m / p.effective_mass_kg) / (2 * std::numbers::pi))
+      throw InputError(f.where(t, "second_mode_frequency_Hz") + " = " +
+                       format_number(p.second_mode_frequency_Hz) +
+                       ": must be above the first mode's " +
+                       format_number(std::sqrt(p.stiffness_N_per_m / p.effective_mass_kg) / (2 * std::numbers::pi)) +
+                       " Hz (or 0 for none)");
     return p;
   }
 
@@ -117,6 +126,11 @@ namespace rectify::system
     p.out_of_range  = f.text(t, "out_of_range", p.out_of_range, {"hold", "error"});
     p.ideal_open_resistance_Pa_s_per_m3 = f.real(t, "ideal_open_resistance_Pa_s_per_m3",
                                                  p.ideal_open_resistance_Pa_s_per_m3, positive);
+    p.leak_resistance_Pa_s_per_m3 =
+      f.real(t, "leak_resistance_Pa_s_per_m3", p.leak_resistance_Pa_s_per_m3, non_negative);
+    p.orifice_discharge_coefficient = f.real(t, "orifice_discharge_coefficient",
+                                             p.orifice_discharge_coefficient, Bounds::closed(0.0, 1.0));
+    p.orifice_perimeter_m = f.real(t, "orifice_perimeter_m", p.orifice_perimeter_m, non_negative);
     return p;
   }
 
@@ -131,6 +145,8 @@ namespace rectify::system
     const std::string t = "lines";
     p.diameter_m = f.real(t, "diameter_m", p.diameter_m, positive);
     p.length_m   = f.real(t, "length_m", p.length_m, positive);
+    p.outlet_inertance_Pa_s2_per_m3 =
+      f.real(t, "outlet_inertance_Pa_s2_per_m3", p.outlet_inertance_Pa_s2_per_m3, non_negative);
     return p;
   }
 
@@ -142,6 +158,8 @@ namespace rectify::system
     p.wetted_length_m = f.real(t, "wetted_length_m", p.wetted_length_m, positive);
     p.high_side_fraction =
       f.real(t, "high_side_fraction", p.high_side_fraction, Bounds::open(0.0, 1.0));
+    p.seal_compliance_m3_per_Pa =
+      f.real(t, "seal_compliance_m3_per_Pa", p.seal_compliance_m3_per_Pa, non_negative);
     return p;
   }
 
@@ -160,6 +178,9 @@ namespace rectify::system
     p.damping_N_s_per_m = f.real(t, "damping_N_s_per_m", p.damping_N_s_per_m, non_negative);
     p.stiffness_N_per_m = f.real(t, "stiffness_N_per_m", p.stiffness_N_per_m, non_negative);
     p.no_flow_mass_kg   = f.real(t, "no_flow_mass_kg", p.no_flow_mass_kg, positive);
+    p.coulomb_friction_N = f.real(t, "coulomb_friction_N", p.coulomb_friction_N, non_negative);
+    p.friction_velocity_scale_m_per_s = f.real(t, "friction_velocity_scale_m_per_s",
+                                               p.friction_velocity_scale_m_per_s, positive);
     return p;
   }
 
@@ -172,6 +193,7 @@ namespace rectify::system
     p.waveform       = f.text(t, "waveform", p.waveform);
     if (p.waveform != "sine")
       p.waveform = f.resolve(p.waveform).string();
+    p.coil_dynamics = f.text(t, "coil_dynamics", p.coil_dynamics, {"off", "on"});
     return p;
   }
 
@@ -221,7 +243,8 @@ namespace rectify::system
         {"bulk_modulus_Pa", fluid.bulk_modulus_Pa},
         {"entrained_air_fraction", fluid.entrained_air_fraction},
         {"gas_heat_capacity_ratio", fluid.gas_heat_capacity_ratio},
-        {"bias_pressure_Pa", fluid.bias_pressure_Pa}}},
+        {"bias_pressure_Pa", fluid.bias_pressure_Pa},
+        {"free_air_fraction", fluid.free_air_fraction}}},
       {"transducer",
        {{"rod_youngs_modulus_Pa", transducer.rod_youngs_modulus_Pa},
         {"rod_area_m2", transducer.rod_area_m2},
@@ -243,27 +266,38 @@ namespace rectify::system
         {"damping_ratio", reed.damping_ratio},
         {"pressure_area_m2", reed.pressure_area_m2},
         {"restitution", reed.restitution},
+        {"second_mode_frequency_Hz", reed.second_mode_frequency_Hz},
         {"source", reed.source}}},
       {"valves",
        {{"resistance_map", valves.resistance_map},
         {"interpolation", valves.interpolation},
         {"out_of_range", valves.out_of_range},
-        {"ideal_open_resistance_Pa_s_per_m3", valves.ideal_open_resistance_Pa_s_per_m3}}},
-      {"lines", {{"diameter_m", lines.diameter_m}, {"length_m", lines.length_m}}},
+        {"ideal_open_resistance_Pa_s_per_m3", valves.ideal_open_resistance_Pa_s_per_m3},
+        {"leak_resistance_Pa_s_per_m3", valves.leak_resistance_Pa_s_per_m3},
+        {"orifice_discharge_coefficient", valves.orifice_discharge_coefficient},
+        {"orifice_perimeter_m", valves.orifice_perimeter_m}}},
+      {"lines",
+       {{"diameter_m", lines.diameter_m},
+        {"length_m", lines.length_m},
+        {"outlet_inertance_Pa_s2_per_m3", lines.outlet_inertance_Pa_s2_per_m3}}},
       {"cylinder",
        {{"piston_area_m2", cylinder.piston_area_m2},
         {"wetted_length_m", cylinder.wetted_length_m},
-        {"high_side_fraction", cylinder.high_side_fraction}}},
+        {"high_side_fraction", cylinder.high_side_fraction},
+        {"seal_compliance_m3_per_Pa", cylinder.seal_compliance_m3_per_Pa}}},
       {"accumulator", {{"gas_volume_m3", accumulator.gas_volume_m3}}},
       {"load",
        {{"mass_kg", load.mass_kg},
         {"damping_N_s_per_m", load.damping_N_s_per_m},
         {"stiffness_N_per_m", load.stiffness_N_per_m},
-        {"no_flow_mass_kg", load.no_flow_mass_kg}}},
+        {"no_flow_mass_kg", load.no_flow_mass_kg},
+        {"coulomb_friction_N", load.coulomb_friction_N},
+        {"friction_velocity_scale_m_per_s", load.friction_velocity_scale_m_per_s}}},
       {"drive",
        {{"current_pp_A", drive.current_pp_A},
         {"current_bias_A", drive.current_bias_A},
-        {"waveform", drive.waveform}}},
+        {"waveform", drive.waveform},
+        {"coil_dynamics", drive.coil_dynamics}}},
       {"solver",
        {{"relative_tolerance", solver.relative_tolerance},
         {"absolute_tolerance_factor", solver.absolute_tolerance_factor},

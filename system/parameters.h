@@ -46,6 +46,11 @@ namespace rectify::system
     double damping_ratio     = 0.1285;
     double pressure_area_m2  = 0.0123 * 0.0254 * 0.0254;
     double restitution       = 0.0; ///< seat impact: rebound speed / impact speed
+    /// A second bending mode (diagnosis effect `reed_second_mode`): natural
+    /// frequency [Hz], 0 for none. Its modal mass (normalised to the tip) and
+    /// damping ratio are the first mode's, as for a uniform cantilever; the
+    /// tip opening is the sum of both modes.
+    double second_mode_frequency_Hz = 0.0;
     /// Where stiffness and mass came from: "case", or the reed map (written
     /// by `rectify map-stiffness`) read at a thickness.
     std::string source = "case";
@@ -62,6 +67,14 @@ namespace rectify::system
     std::string interpolation = "monotone-cubic";
     std::string out_of_range  = "hold";
     double      ideal_open_resistance_Pa_s_per_m3 = 4.5e8;
+    /// Leakage past each valve (diagnosis effect `valve_leakage`): a path of
+    /// this resistance in parallel with the valve, open or shut; 0 for none.
+    double      leak_resistance_Pa_s_per_m3 = 0.0;
+    /// Nonlinear orifice flow (diagnosis effect `orifice_flow`): an extra
+    /// drop rho q|q| / (2 Cd^2 A^2) through an open valve, A = perimeter x
+    /// opening (the curtain area); Cd 0 for none.
+    double      orifice_discharge_coefficient = 0.0;
+    double      orifice_perimeter_m = 0.0; ///< 0: the circumference of a port of area A_r
     static ValveParameters from_case(const CaseFile &file);
   };
 
@@ -71,6 +84,9 @@ namespace rectify::system
     double length_m   = 12 * 0.0254;
     /// eq. 3.28: 128 mu L / (pi d^4)
     double resistance_Pa_s_per_m3(double viscosity_Pa_s) const;
+    /// Fluid inertance of the outlet line (diagnosis effect `line_inertance`),
+    /// rho L / A for a tube; 0 for none (the thesis neglects it).
+    double outlet_inertance_Pa_s2_per_m3 = 0.0;
     static LineParameters from_case(const CaseFile &file);
   };
 
@@ -79,6 +95,9 @@ namespace rectify::system
     double piston_area_m2     = 0.2 * 0.0254 * 0.0254;
     double wetted_length_m    = 1.0 * 0.0254;
     double high_side_fraction = 0.5;
+    /// Extra compliance on the high (outlet) side, a soft seal or hose
+    /// (diagnosis effect `outlet_compliance`); 0 for none.
+    double seal_compliance_m3_per_Pa = 0.0;
     static CylinderParameters from_case(const CaseFile &file);
   };
 
@@ -94,6 +113,10 @@ namespace rectify::system
     double damping_N_s_per_m   = 0.0;
     double stiffness_N_per_m   = 0.0;
     double no_flow_mass_kg     = 1e12;
+    /// Coulomb friction on the output piston (diagnosis effect
+    /// `piston_friction`): F_c tanh(v / v_s); 0 for none.
+    double coulomb_friction_N = 0.0;
+    double friction_velocity_scale_m_per_s = 1e-3;
     static LoadParameters from_case(const CaseFile &file);
   };
 
@@ -102,6 +125,11 @@ namespace rectify::system
     double      current_pp_A   = 20.0;
     double      current_bias_A = 10.0;
     std::string waveform       = "sine"; ///< "sine" or the resolved path of a CSV (time_s, current_A)
+    /// With a voltage drive (measured voltage_V): "off" takes the coil as a
+    /// resistor, I = V/R; "on" integrates L dI/dt = V - R I with the
+    /// transducer's coil resistance and inductance (diagnosis effect
+    /// `coil_dynamics`). A current drive ignores it.
+    std::string coil_dynamics  = "off";
     static DriveParameters from_case(const CaseFile &file);
   };
 

@@ -56,7 +56,8 @@ namespace rectify::system
     for (double s : model.typical_sizes())
       o.absolute_tolerances.push_back(options.absolute_tolerance_factor *
                                       options.relative_tolerance * s);
-    o.finite_difference_jacobian = options.finite_difference_jacobian;
+    o.finite_difference_jacobian =
+      options.finite_difference_jacobian || model.needs_difference_jacobian();
     o.max_steps_between_outputs  = std::max<long>(
       500, options.max_steps_per_cycle / static_cast<long>(options.samples_per_cycle));
     return o;
@@ -224,13 +225,14 @@ namespace rectify::system
             integrator.advance_to(t);
             const auto  y  = integrator.state();
             const Flows fl = model.flows(y);
-            min_reed       = std::min({min_reed, y[outlet_reed_x], y[inlet_reed_x]});
+            const double x_o = model.opening(0, y), x_i = model.opening(1, y);
+            min_reed       = std::min({min_reed, x_o, x_i});
             if (measuring)
               {
                 x_p_min  = std::min(x_p_min, y[piston_x]);
                 x_p_max  = std::max(x_p_max, y[piston_x]);
-                max_ro   = std::max(max_ro, y[outlet_reed_x]);
-                max_ri   = std::max(max_ri, y[inlet_reed_x]);
+                max_ro   = std::max(max_ro, x_o);
+                max_ri   = std::max(max_ri, x_i);
                 min_p_ch = std::min(min_p_ch, y[chamber_p]);
                 for (std::size_t i = 0; i < section_states.size(); ++i)
                   {
@@ -238,18 +240,18 @@ namespace rectify::system
                     section_max[i] = std::max(section_max[i], y[section_states[i]]);
                   }
               }
-            if (std::max(y[outlet_reed_x], y[inlet_reed_x]) > map_max)
+            if (std::max(x_o, x_i) > map_max)
               ++result.n_samples_beyond_map;
             if (result.series)
               {
                 row = {t,
-                       model.drive().current_A(t),
+                       model.current_A(t, y),
                        y[piston_x],
                        y[fluid_x],
                        y[actuator_x],
                        y[actuator_v],
-                       y[outlet_reed_x],
-                       y[inlet_reed_x],
+                       x_o,
+                       x_i,
                        y[chamber_p],
                        y[accumulator_p],
                        y[high_p],
@@ -329,12 +331,13 @@ namespace rectify::system
     //   chamber:       C_ch dp_ch = A_pi dx_p + V_in - V_out
     const double scale = std::max({std::abs(y[outlet_volume]), std::abs(y[inlet_volume]),
                                    c.A_pi * std::abs(y[piston_x]), c.A_pi * 1e-9});
+    //   (C p is the node's stored volume, with free air its integral: Model::stored_volume)
     const double e_out =
-      y[outlet_volume] - (c.C_h * y[high_p] + c.A_po * y[actuator_x]);
-    const double e_in = y[inlet_volume] - (-c.C_acc * y[accumulator_p] - c.C_l * y[low_p] +
-                                           c.A_po * y[actuator_x]);
-    const double e_ch =
-      c.C_ch * y[chamber_p] - (c.A_pi * y[piston_x] + y[inlet_volume] - y[outlet_volume]);
+      y[outlet_volume] - (model.stored_volume(1, y[high_p]) + c.A_po * y[actuator_x]);
+    const double e_in = y[inlet_volume] - (-c.C_acc * y[accumulator_p] -
+                                           model.stored_volume(2, y[low_p]) + c.A_po * y[actuator_x]);
+    const double e_ch = model.stored_volume(0, y[chamber_p]) -
+                        (c.A_pi * y[piston_x] + y[inlet_volume] - y[outlet_volume]);
     result.volume_balance_rel_error =
       std::max({std::abs(e_out), std::abs(e_in), std::abs(e_ch)}) / scale;
 
