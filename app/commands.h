@@ -35,6 +35,9 @@ namespace rectify::app
   /// `check`: validate a case file for every stage.
   void register_check_command(CLI::App &app);
 
+  /// `synth`, `diagnose` (diagnosis/).
+  void register_diagnosis_commands(CLI::App &app);
+
   /// `map-thesis` (maps/).
   void register_map_commands(CLI::App &app);
 } // namespace rectify::app

@@ -26,6 +26,7 @@ int main(int argc, char **argv)
   rectify::app::register_mesh_commands(app);
   rectify::app::register_stokes_commands(app);
   rectify::app::register_stiffness_commands(app);
+  rectify::app::register_diagnosis_commands(app);
   try
     {
       app.parse(argc, argv);

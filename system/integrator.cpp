@@ -177,6 +177,8 @@ namespace rectify::system
     m.cvode = CVodeCreate(CV_BDF, m.context);
     if (!m.cvode)
       throw std::runtime_error("CVODE: CVodeCreate failed");
+    if (options.quiet)
+      check(CVodeSetErrFile(m.cvode, nullptr), "CVodeSetErrFile");
     check(CVodeInit(m.cvode, rhs_callback, t0, m.y), "CVodeInit");
     check(CVodeSetUserData(m.cvode, &system), "CVodeSetUserData");
     check(CVodeSVtolerances(m.cvode, options.relative_tolerance, m.atol), "CVodeSVtolerances");

@@ -43,6 +43,7 @@ namespace rectify::system
     std::vector<double> absolute_tolerances;   ///< one per state
     bool                finite_difference_jacobian = false;
     long                max_steps_between_outputs   = 1000000;
+    bool                quiet = false; ///< no CVODE messages on stderr (failures still throw)
   };
 
   /// CVODE counters, summed over every reinitialisation.

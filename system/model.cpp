@@ -132,7 +132,7 @@ namespace rectify::system
 
   bool Model::needs_difference_jacobian() const
   {
-    return c_.fluid.free_air_fraction > 0 || c_.R_leak > 0 || c_.orifice_factor > 0 ||
+    return c_.fluid.free_air_fraction > 0 || c_.C_seal > 0 || c_.R_leak > 0 || c_.orifice_factor > 0 ||
            c_.L_line > 0 || (drive_.is_voltage() && c_.coil_dynamics) || c_.F_coulomb > 0 ||
            c_.k_r2 > 0;
   }
@@ -291,7 +291,7 @@ namespace rectify::system
       {
         const std::size_t ix  = v == 0 ? outlet_reed_x : inlet_reed_x;
         const std::size_t ix2 = v == 0 ? outlet_reed2_x : inlet_reed2_x;
-        if (c_.k_r2 > 0)
+        if (ydot.size() > ix2 + 1)
           ydot[ix2] = ydot[ix2 + 1] = 0.0;
         if (valves_ == ValveModel::ideal || closed_[v])
           {
@@ -321,10 +321,14 @@ namespace rectify::system
 
     if (ydot.size() == thesis_count)
       return;
-    // Outlet-line inertance: L q' = p_ch - p_h - (R1 + R3) q - K q|q|.
+    // Outlet-line inertance: L q' = p_ch - p_h - (R1 + R3) q - K q|q|. Behind a
+    // shut valve (R ~ 1e17) the flow's time constant L/R would be ~1e-10 s; L is
+    // floored at R x 1e-7 s, which only touches resistances above L / 1e-7 s
+    // (a shut valve), where the flow is nil either way.
+    const double L_eff = std::max(c_.L_line, (f.R1 + c_.R3) * 1e-7);
     ydot[line_flow] = c_.L_line > 0 ?
                         (y[chamber_p] - y[high_p] - (f.R1 + c_.R3) * f.q_outlet -
-                         f.K1 * f.q_outlet * std::abs(f.q_outlet)) / c_.L_line :
+                         f.K1 * f.q_outlet * std::abs(f.q_outlet)) / L_eff :
                         0.0;
     ydot[coil_current] = drive_.is_voltage() && c_.coil_dynamics ?
                            (drive_.value(t) - c_.R_coil * y[coil_current]) / c_.L_coil :

@@ -32,10 +32,16 @@ namespace rectify::system
     return (force - c.damping * v - c.stiffness * x) / c.mass;
   }
 
+  /// A free reed hits its seat when x falls through -reed_seat_tolerance (1e-13 m,
+  /// far below any opening that matters): not through 0, because a reed
+  /// that has just lifted starts its segment at x = 0, where CVODE would mask
+  /// the root and miss an immediate return through the seat.
+  inline constexpr double reed_seat_tolerance = 1e-13;
+
   /// Root function: crosses zero from above at lift-off (seated) or impact (free).
   inline double reed_root(bool seated, double x, double force)
   {
-    return seated ? reed_lift_force - force : x;
+    return seated ? reed_lift_force - force : x + reed_seat_tolerance;
   }
 
   /// Applies a located root to (x, v) and returns whether the reed is now

@@ -345,7 +345,10 @@ TEST(Model, HalvingTolerancesMovesTheMetricsLessThanHalfAPercent)
   // is periodic (loaded: points of the 10-3500 Hz linear sweep grid). Where
   // the loaded model flutters non-periodically or has coexisting orbits, the
   // mean depends on the trajectory, not on the tolerance: see
-  // docs/chapter5-comparison.md.
+  // docs/chapter5-comparison.md. (No-flow at 50 and 100 Hz with 4 A p-p is
+  // not used: its cycle-end states still wander by 1-3 % of their range
+  // after settling, and the regime check flips with a 1e-13 m change of the
+  // seat contact; the stored pressure agrees either way.)
   const auto p = reference();
   struct Case
   {
@@ -354,7 +357,7 @@ TEST(Model, HalvingTolerancesMovesTheMetricsLessThanHalfAPercent)
     double   pp, bias;
   };
   const double step = (3500.0 - 10.0) / 99.0;
-  for (const Case &k : {Case{Scenario::no_flow, 50, 4, 2}, Case{Scenario::no_flow, 400, 4, 2},
+  for (const Case &k : {Case{Scenario::no_flow, 200, 4, 2}, Case{Scenario::no_flow, 400, 4, 2},
                         Case{Scenario::loaded, 10 + 1 * step, 20, 10},
                         Case{Scenario::loaded, 10 + 11 * step, 20, 10},
                         Case{Scenario::loaded, 10 + 17 * step, 20, 10}})

@@ -1,0 +1,441 @@
+// `rectify synth` and `rectify diagnose`: measured runs against the system
+// model, the missing effect found, named and added (diagnosis/).
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+
+#include "app/commands.h"
+#include "common/io.h"
+#include <fstream>
+#include <sstream>
+
+#include "common/plot.h"
+#include "diagnosis/case_edit.h"
+#include "diagnosis/diagnose.h"
+#include "diagnosis/effect.h"
+#include "diagnosis/synth.h"
+#include "system/model.h"
+
+namespace rectify::app
+{
+  namespace
+  {
+    maps::ResistanceMap load_resistance_map(const system::SystemParameters &p)
+    {
+      return maps::ResistanceMap::read(p.valves.resistance_map,
+                                       maps::parse_interpolation(p.valves.interpolation));
+    }
+
+    // ------------------------------------------------------------------ synth
+    struct SynthCommandOptions
+    {
+      std::string              case_path, out_dir, scenario = "no-flow";
+      std::vector<std::string> params;
+      diagnosis::SynthOptions  synth;
+      double                   current_pp_A = std::nan(""), current_bias_A = std::nan("");
+    };
+
+    void synth(SynthCommandOptions o)
+    {
+      const CaseFile file = load_case(o.case_path);
+      const auto     p    = system::SystemParameters::from_case(file);
+      o.synth.scenario    = system::parse_scenario(o.scenario);
+      o.synth.current_pp_A   = std::isnan(o.current_pp_A) ? p.drive.current_pp_A : o.current_pp_A;
+      o.synth.current_bias_A = std::isnan(o.current_bias_A) ? p.drive.current_bias_A : o.current_bias_A;
+      for (const auto &kv : o.params)
+        {
+          const auto eq = kv.find('=');
+          if (eq == std::string::npos || eq == 0)
+            throw InputError("--param '" + kv + "': expected KEY=VALUE");
+          const std::string key = kv.substr(0, eq), text = kv.substr(eq + 1);
+          std::size_t       used = 0;
+          double            value = 0;
+          try
+            {
+              value = std::stod(text, &used);
+            }
+          catch (const std::exception &)
+            {
+              used = 0;
+            }
+          if (used != text.size() || text.empty() || !std::isfinite(value))
+            throw InputError("--param " + key + ": '" + text + "' is not a finite number");
+          o.synth.parameters[key] = value;
+        }
+      if (o.synth.effect != "none")
+        diagnosis::find_effect(o.synth.effect); // a clear error before the run
+      echo_settings("synth", {{"case", o.case_path},
+                              {"effect", o.synth.effect},
+                              {"scenario", o.scenario},
+                              {"frequency [Hz]", format_number(o.synth.frequency_Hz)},
+                              {"cycles", std::to_string(o.synth.cycles)},
+                              {"noise", format_number(o.synth.noise)},
+                              {"seed", std::to_string(o.synth.seed)},
+                              {"out", o.out_dir}});
+      const auto result = diagnosis::synthesise(p, load_resistance_map(p), o.synth);
+      const std::filesystem::path out(o.out_dir);
+      ensure_directory(out);
+      result.data.write(out / "data.csv");
+      auto answer    = result.answer;
+      answer["case"] = o.case_path;
+      write_json(out / "answer.json", answer);
+      std::printf("wrote %s (%zu rows) and %s\n", (out / "data.csv").c_str(), result.data.n_rows(),
+                  (out / "answer.json").c_str());
+    }
+    // --------------------------------------------------------------- diagnose
+    struct DiagnoseCommandOptions
+    {
+      std::string                case_path, out_dir, scenario = "no-flow";
+      std::vector<std::string>   data;
+      double                     frequency_Hz = 0;
+      bool                       second       = false;
+      diagnosis::DiagnoseOptions options;
+    };
+
+    std::string sci(double v)
+    {
+      char buf[32];
+      std::snprintf(buf, sizeof buf, "%.4g", v);
+      return buf;
+    }
+
+    std::string pretty_signal(const std::string &s)
+    {
+      return s == "outlet_pressure_Pa" ? "outlet pressure [MPa]" :
+             s == "chamber_pressure_Pa" ? "chamber pressure [MPa]" :
+             s == "outlet_valve_m" ? "outlet valve opening [um]" :
+             s == "actuator_position_m" ? "actuator position [mm]" :
+             s == "actuator_velocity_m_per_s" ? "actuator velocity [mm/s]" : s;
+    }
+
+    double display_scale(const std::string &s)
+    {
+      return s.ends_with("_Pa") ? 1e-6 : s == "outlet_valve_m" ? 1e6 : s.ends_with("_m") || s.ends_with("_m_per_s") ? 1e3 : 1.0;
+    }
+
+    void diagnose(DiagnoseCommandOptions o)
+    {
+      const auto     start = std::chrono::steady_clock::now();
+      const CaseFile file  = load_case(o.case_path);
+      const auto     p     = system::SystemParameters::from_case(file);
+      const auto     scenario = system::parse_scenario(o.scenario);
+      if (o.data.empty())
+        throw InputError("--data: give at least one measured run (CSV)");
+      if (!(o.options.training_fraction >= 0.3 && o.options.training_fraction <= 0.95))
+        throw InputError("--training-fraction " + format_number(o.options.training_fraction) +
+                         ": must be in [0.3, 0.95]");
+      if (o.frequency_Hz < 0 || !std::isfinite(o.frequency_Hz))
+        throw InputError("--frequency " + format_number(o.frequency_Hz) + ": must be > 0 (or 0: from the data)");
+      for (const auto &e : o.options.effects)
+        diagnosis::find_effect(e);
+      o.options.rounds = o.second ? 2 : 1;
+
+      std::vector<diagnosis::RunCase> runs;
+      for (const auto &path : o.data)
+        {
+          auto run = diagnosis::MeasuredRun::read(path, o.frequency_Hz);
+          for (const auto &c : run.ignored_columns)
+            std::fprintf(stderr, "notice: '%s': column '%s' ignored (not a quantity the model predicts)\n",
+                         path.c_str(), c.c_str());
+          runs.push_back(diagnosis::make_run_case(std::move(run), scenario, o.frequency_Hz,
+                                                  o.options.training_fraction));
+          const auto &rc = runs.back();
+          if (scenario == system::Scenario::no_flow && rc.run.has("actuator_position_m"))
+            {
+              const auto &x = rc.run.signal("actuator_position_m");
+              if (*std::max_element(x.begin(), x.end()) - *std::min_element(x.begin(), x.end()) > 1e-4)
+                std::fprintf(stderr, "warning: '%s': the actuator moves %.3g mm, but the scenario is no-flow "
+                             "(--scenario loaded?)\n", path.c_str(),
+                             1e3 * (*std::max_element(x.begin(), x.end()) - *std::min_element(x.begin(), x.end())));
+            }
+        }
+      std::string data_list;
+      for (const auto &rc : runs)
+        data_list += (data_list.empty() ? "" : ", ") + rc.run.source + " (" +
+                     format_number(std::round(rc.setup.frequency_Hz * 100) / 100) + " Hz, " +
+                     std::to_string(rc.run.time_s.size()) + " samples)";
+      echo_settings("diagnose", {{"case", o.case_path},
+                                 {"data", data_list},
+                                 {"scenario", o.scenario},
+                                 {"candidates", o.options.effects.empty() ? "all: " + diagnosis::effect_names() : [&] {
+                                    std::string s;
+                                    for (const auto &e : o.options.effects)
+                                      s += (s.empty() ? "" : ", ") + e;
+                                    return s;
+                                  }()},
+                                 {"nuisance", "force gain in 1 +- " + format_number(o.options.gain_range)},
+                                 {"training", format_number(o.options.training_fraction) + " of each run; the rest held out"},
+                                 {"rounds", std::to_string(o.options.rounds)},
+                                 {"out", o.out_dir}});
+      o.options.progress = [](const std::string &line) { std::fprintf(stderr, "  fitted %s\n", line.c_str()); };
+      const auto map    = load_resistance_map(p);
+      const auto result = diagnosis::diagnose(p, map, runs, o.options);
+
+      const std::filesystem::path out(o.out_dir);
+      ensure_directory(out);
+      auto summary = diagnosis::to_json(result, runs);
+      summary["command"]         = "diagnose";
+      summary["rectify_version"] = RECTIFY_VERSION;
+      summary["case"]            = o.case_path;
+      summary["scenario"]        = o.scenario;
+      summary["data"]            = o.data;
+
+      // The new case file with the named effects (and the fitted gain).
+      std::vector<diagnosis::CaseEntry> entries;
+      std::string                       effects_named;
+      for (const auto &rr : result.rounds)
+        if (rr.effect != "none")
+          {
+            const auto e = diagnosis::find_effect(rr.effect);
+            effects_named += (effects_named.empty() ? "" : "+") + rr.effect;
+            for (std::size_t i = 0; i < rr.values.size(); ++i)
+              entries.push_back({e->parameters()[i].table, e->parameters()[i].key, sci(rr.values[i]),
+                                 "rectify diagnose: " + rr.effect + " (fitted)"});
+            for (const auto &k : e->fixed_keys())
+              entries.push_back({k.table, k.key, k.value, "rectify diagnose: " + rr.effect});
+          }
+      char gain[64];
+      std::snprintf(gain, sizeof gain, "%.6g", result.final_parameters.transducer.piezomagnetic_coefficient_m_per_A);
+      entries.push_back({"transducer", "piezomagnetic_coefficient_m_per_A", gain,
+                         "rectify diagnose: nuisance force gain fitted"});
+      std::string text;
+      {
+        std::ifstream in(file.name());
+        std::stringstream ss;
+        ss << in.rdbuf();
+        text = ss.str();
+      }
+      const std::string case_name = "case-with-" + (effects_named.empty() ? std::string("none") : effects_named) + ".toml";
+      diagnosis::CaseEntry header{};
+      (void)header;
+      const std::string edited =
+        "# Written by rectify diagnose from " + std::filesystem::absolute(file.name()).string() +
+        "\n# with the named effect(s) and the fitted force gain; see summary.json.\n" +
+        diagnosis::edit_case_text(text, std::filesystem::path(file.name()).parent_path(), entries);
+      write_file_atomic(out / case_name, edited);
+      // Check: the new case file reproduces the refitted model.
+      const CaseFile new_file = load_case(out / case_name);
+      const auto     new_p    = system::SystemParameters::from_case(new_file);
+      double         check_sq = 0;
+      std::size_t    check_n  = 0;
+      for (std::size_t r = 0; r < runs.size(); ++r)
+        {
+          diagnosis::SimulationOptions so;
+          so.relative_tolerance = o.options.relative_tolerance;
+          const auto model = diagnosis::simulate_run(new_p, map, runs[r].run, runs[r].setup, so);
+          const auto norms = diagnosis::residual_norms(runs[r].run, model, runs[r].scales);
+          check_sq += norms.at("overall") * norms.at("overall");
+          ++check_n;
+        }
+      const double check = std::sqrt(check_sq / static_cast<double>(check_n));
+      summary["new_case"] = {{"file", case_name},
+                             {"residual_overall_from_file", check},
+                             {"matches_refit", std::abs(check - result.residual_after.at("overall")) <=
+                                                 2e-3 * result.residual_after.at("overall") + 1e-9}};
+
+      // Overlays: data, old model, new model, per run.
+      std::vector<std::string> files{"summary.json", "report.md", "candidates.csv", case_name};
+      for (std::size_t r = 0; r < runs.size(); ++r)
+        {
+          const auto &rc = runs[r];
+          std::vector<std::string> cols{"time_s"};
+          std::vector<std::string> sigs;
+          for (const auto &[name, v] : result.before[r])
+            {
+              sigs.push_back(name);
+              cols.push_back("data_" + name);
+              cols.push_back("before_" + name);
+              cols.push_back("after_" + name);
+            }
+          CsvTable table(cols);
+          std::vector<double> row(cols.size());
+          for (std::size_t i = 0; i < rc.run.time_s.size(); ++i)
+            {
+              row[0] = rc.run.time_s[i];
+              std::size_t c = 1;
+              for (const auto &s : sigs)
+                {
+                  row[c++] = rc.run.signal(s)[i];
+                  row[c++] = result.before[r].at(s)[i];
+                  row[c++] = result.after[r].at(s)[i];
+                }
+              table.add_row(row);
+            }
+          const std::string base = "overlay-" + std::to_string(r + 1);
+          table.write(out / (base + ".csv"));
+          files.push_back(base + ".csv");
+          std::vector<PlotPanel> panels;
+          const std::size_t stride = std::max<std::size_t>(1, rc.run.time_s.size() / 8000);
+          for (const auto &s : sigs)
+            panels.push_back({pretty_signal(s) + " - " + rc.run.source, "time [s]", pretty_signal(s), false, false,
+                              {{out / (base + ".csv"), "time_s", "data_" + s, "data", "lines", 1, display_scale(s), stride},
+                               {out / (base + ".csv"), "time_s", "before_" + s, "model before", "lines", 1, display_scale(s), stride},
+                               {out / (base + ".csv"), "time_s", "after_" + s, "model with " + (effects_named.empty() ? std::string("no effect (refit)") : effects_named), "lines", 1, display_scale(s), stride}}});
+          if (render_plot(out / base, panels))
+            files.push_back(base + ".png");
+        }
+      summary["files"] = files;
+      summary["total_wall_time_s"] =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+      // candidates.csv (first round)
+      {
+        std::string csv = "effect,k,bic,delta_bic_vs_none,aic,rms_train,rms_heldout,force_gain,parameters,evaluations,wall_time_s,note\n";
+        const auto &cands = result.rounds.front().candidates;
+        double      none_bic = 0;
+        for (const auto &c : cands)
+          if (c.effect == "none")
+            none_bic = c.bic;
+        for (const auto &c : cands)
+          {
+            std::string params;
+            if (c.effect != "none" && c.not_testable.empty())
+              {
+                const auto e = diagnosis::find_effect(c.effect);
+                for (std::size_t i = 0; i < c.values.size(); ++i)
+                  params += (params.empty() ? "" : " ") + e->parameters()[i].key + "=" + sci(c.values[i]);
+              }
+            if (!c.not_testable.empty())
+              csv += c.effect + ",,,,,,,,,,,\"not testable: " + c.not_testable + "\"\n";
+            else
+              csv += c.effect + "," + std::to_string(c.k) + "," + sci(c.bic) + "," + sci(none_bic - c.bic) + "," +
+                     sci(c.aic) + "," + sci(c.rms_train) + "," + sci(c.rms_heldout) + "," + sci(c.force_gain) +
+                     "," + params + "," + std::to_string(c.evaluations) + "," + sci(c.wall_time_s) + "," +
+                     (c.failed ? "failed: " + c.message : "") + "\n";
+          }
+        write_file_atomic(out / "candidates.csv", csv);
+      }
+
+      // report.md
+      {
+        std::string md = "# rectify diagnose\n\nCase: `" + o.case_path + "`, scenario " + o.scenario + ".\n\n";
+        md += "## Where the model disagrees with the data (before)\n\n";
+        for (std::size_t r = 0; r < runs.size(); ++r)
+          {
+            md += "Run `" + runs[r].run.source + "` (" + sci(runs[r].setup.frequency_Hz) + " Hz):\n\n";
+            for (const auto &s : result.localisation[r].sentences)
+              md += "- " + s + "\n";
+            md += "\n";
+          }
+        for (const auto &s : result.trend_sentences)
+          md += "- " + s + "\n";
+        for (std::size_t k = 0; k < result.rounds.size(); ++k)
+          {
+            const auto &rr = result.rounds[k];
+            md += "\n## Round " + std::to_string(k + 1) + ": " +
+                  (rr.effect == "none" ? std::string("no significant missing effect") : "**" + rr.effect + "**") + "\n\n";
+            if (rr.effect != "none")
+              {
+                const auto e = diagnosis::find_effect(rr.effect);
+                md += e->physics() + ".\n\nExpected signature: " + e->signature() + ".\n\n";
+                for (std::size_t i = 0; i < rr.values.size(); ++i)
+                  md += "- " + e->parameters()[i].meaning + ": `" + e->parameters()[i].key + " = " + sci(rr.values[i]) +
+                        "` (bounds " + sci(e->parameters()[i].lower) + " .. " + sci(e->parameters()[i].upper) + ")\n";
+                md += "- confidence (BIC weight): " + sci(rr.confidence) + "\n";
+              }
+            md += "- force gain (nuisance): " + sci(rr.force_gain) + "\n- evidence: " + rr.decision + "\n\n";
+            md += "| candidate | k | BIC - BIC(none) | AIC | RMS train | RMS held-out | parameters |\n|---|---|---|---|---|---|---|\n";
+            double none_bic = 0;
+            for (const auto &c : rr.candidates)
+              if (c.effect == "none")
+                none_bic = c.bic;
+            for (const auto &c : rr.candidates)
+              {
+                if (!c.not_testable.empty())
+                  {
+                    md += "| " + c.effect + " | | not testable: " + c.not_testable + " | | | | |\n";
+                    continue;
+                  }
+                std::string params;
+                if (c.effect != "none")
+                  {
+                    const auto e = diagnosis::find_effect(c.effect);
+                    for (std::size_t i = 0; i < c.values.size(); ++i)
+                      params += e->parameters()[i].key + " = " + sci(c.values[i]);
+                  }
+                md += "| " + c.effect + " | " + std::to_string(c.k) + " | " + sci(c.bic - none_bic) + " | " + sci(c.aic) +
+                      " | " + sci(c.rms_train) + " | " + sci(c.rms_heldout) + " | " + params + " |\n";
+              }
+          }
+        md += "\n## Gap before and after (normalised RMS residual)\n\n| signal | before | after |\n|---|---|---|\n";
+        for (const auto &[name, v] : result.residual_before)
+          md += "| " + name + " | " + sci(v) + " | " + sci(result.residual_after.at(name)) + " |\n";
+        md += "\nNew case file: `" + case_name + "`. Overlays: `overlay-N.png`.\n";
+        write_file_atomic(out / "report.md", md);
+      }
+      write_json(out / "summary.json", summary);
+
+      std::printf("effect: %s", result.rounds.front().effect.c_str());
+      for (std::size_t k = 1; k < result.rounds.size(); ++k)
+        std::printf(", then %s", result.rounds[k].effect.c_str());
+      std::printf("\n%s\n", result.rounds.front().decision.c_str());
+      for (const auto &rc : result.localisation)
+        for (const auto &s : rc.sentences)
+          std::printf("  before: %s\n", s.c_str());
+      std::printf("residual (normalised RMS, all signals): %.4g before, %.4g after (%.1f %% smaller)\n",
+                  result.residual_before.at("overall"), result.residual_after.at("overall"),
+                  100 * (1 - result.residual_after.at("overall") / result.residual_before.at("overall")));
+      std::printf("wrote %s, %s\n", (out / "summary.json").c_str(), (out / case_name).c_str());
+    }
+  } // namespace
+
+  void register_diagnosis_commands(CLI::App &app)
+  {
+    {
+      auto o   = std::make_shared<DiagnoseCommandOptions>();
+      auto cmd = app.add_subcommand(
+        "diagnose", "compare measured runs with the model, name the missing effect, add it, refit");
+      add_case_and_out(*cmd, o->case_path, o->out_dir);
+      cmd->add_option("--data", o->data, "measured runs (CSV: time_s, current_A or voltage_V, outlet_pressure_Pa, ...)")
+        ->required();
+      cmd->add_option("--scenario", o->scenario, "no-flow or loaded (all runs)")
+        ->check(CLI::IsMember({"no-flow", "loaded"}))
+        ->capture_default_str();
+      cmd->add_option("--frequency", o->frequency_Hz, "pumping frequency [Hz] (default: from each run's drive)");
+      cmd->add_option("--effects", o->options.effects, "candidate effects (default: all)");
+      cmd->add_flag("--second-effect", o->second, "after naming one effect, look for a second");
+      cmd->add_option("--training-fraction", o->options.training_fraction,
+                      "part of each run the fit sees; the rest is held out")->capture_default_str();
+      cmd->add_option("--max-evaluations", o->options.max_evaluations, "optimiser evaluations per candidate")
+        ->capture_default_str();
+      cmd->add_option("--threads", o->options.threads, "candidates fitted at once (0: all cores)");
+      cmd->add_option("--rtol", o->options.relative_tolerance, "CVODE relative tolerance")->capture_default_str();
+      cmd->callback([o] { diagnose(*o); });
+    }
+
+    auto o   = std::make_shared<SynthCommandOptions>();
+    auto cmd = app.add_subcommand(
+      "synth", "synthetic measured run: the model with one hidden effect, plus noise "
+               "(DIR/data.csv; the answer in DIR/answer.json)");
+    add_case_and_out(*cmd, o->case_path, o->out_dir);
+    cmd->add_option("--effect", o->synth.effect,
+                    "hidden effect: none or one of " + diagnosis::effect_names())
+      ->capture_default_str();
+    cmd->add_option("--param", o->params,
+                    "effect parameter KEY=VALUE (repeatable; default: the middle of its bounds)");
+    cmd->add_option("--noise", o->synth.noise,
+                    "Gaussian noise, standard deviation as a fraction of each column's RMS")
+      ->capture_default_str();
+    cmd->add_option("--drive-noise", o->synth.drive_noise,
+                    "noise on the drive column (default: --noise)");
+    cmd->add_option("--seed", o->synth.seed, "random seed of the noise")->capture_default_str();
+    cmd->add_option("--scenario", o->scenario, "no-flow or loaded")
+      ->check(CLI::IsMember({"no-flow", "loaded"}))
+      ->capture_default_str();
+    cmd->add_option("--frequency", o->synth.frequency_Hz, "pumping frequency [Hz]")
+      ->capture_default_str();
+    cmd->add_option("--cycles", o->synth.cycles, "pumping cycles recorded from rest")
+      ->capture_default_str();
+    cmd->add_option("--samples-per-cycle", o->synth.samples_per_cycle, "samples per pumping cycle")
+      ->capture_default_str();
+    cmd->add_option("--current-pp", o->current_pp_A, "coil current peak-to-peak [A] (default: case [drive])");
+    cmd->add_option("--current-bias", o->current_bias_A, "coil current bias [A] (default: case [drive])");
+    cmd->add_option("--drive", o->synth.drive,
+                    "drive column: current, voltage (R_coil x the current sine) or auto "
+                    "(voltage for coil_dynamics)")
+      ->check(CLI::IsMember({"auto", "current", "voltage"}))
+      ->capture_default_str();
+    cmd->callback([o] { synth(*o); });
+  }
+} // namespace rectify::app

@@ -1,0 +1,124 @@
+#!/usr/bin/env python3
+"""Identification study of `rectify diagnose` (issue 4): for every effect of
+the library, synthetic runs with the effect hidden at random parameter
+values, noise of 1-2 % and several pumping frequencies; plus runs with no
+effect. Writes DIR/cases.csv (one row per case, appended as cases finish, so
+an interrupted study resumes where it stopped) and DIR/study.md (confusion
+matrix, parameter errors, residual shrink).
+
+  python3 bench/diagnosis_study.py --rectify build/bin/rectify --out runs/study [--per-effect 10] [--none 20]
+
+Parameters are drawn log-uniformly (or uniformly) inside each effect's study
+range below: the part of its bounds where the effect moves the signals by
+more than a few times the noise floor (docs/diagnosis.md gives the detection
+limits).
+"""
+import argparse, csv, json, math, os, random, subprocess, sys, time
+
+STUDY = {
+    # effect: (key, low, high, log, scenario, frequencies, extra synth args)
+    "entrained_air": ("free_air_fraction", 1.5e-3, 1e-2, True, "no-flow", [50, 100, 200], []),
+    "outlet_compliance": ("seal_compliance_m3_per_Pa", 1e-12, 1e-10, True, "no-flow", [50, 100, 200], []),
+    "valve_leakage": ("leak_resistance_Pa_s_per_m3", 2e10, 1e13, True, "no-flow", [50, 100, 200], []),
+    "orifice_flow": ("orifice_discharge_coefficient", 0.32, 0.55, False, "no-flow", [50, 100, 200], []),
+    "line_inertance": ("outlet_inertance_Pa_s2_per_m3", 1e7, 3e8, True, "no-flow", [50, 100, 200], []),
+    "coil_dynamics": ("coil_inductance_H", 3e-4, 5e-3, True, "no-flow", [50, 100, 200], []),
+    "piston_friction": ("coulomb_friction_N", 4.0, 60.0, True, "loaded", [50, 100, 150],
+                        ["--current-pp", "4", "--current-bias", "2"]),
+    "reed_second_mode": ("second_mode_frequency_Hz", 1600.0, 3000.0, True, "no-flow", [50, 100, 200], []),
+}
+NONE_FREQUENCIES = [50, 100, 200]
+COLUMNS = ["case", "truth", "named", "correct", "key", "true_value", "fitted_value", "rel_error",
+           "residual_before", "residual_after", "shrink", "frequency_Hz", "noise", "scenario",
+           "confidence", "wall_time_s"]
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--rectify", default="build/bin/rectify")
+    ap.add_argument("--case", default=None)
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--per-effect", type=int, default=10)
+    ap.add_argument("--none", type=int, default=20)
+    ap.add_argument("--cycles", type=int, default=16)
+    ap.add_argument("--seed", type=int, default=2026)
+    ap.add_argument("--effects", nargs="*", default=list(STUDY))
+    a = ap.parse_args()
+    os.makedirs(a.out, exist_ok=True)
+    rng = random.Random(a.seed)
+    cases = []
+    for effect in a.effects:
+        key, lo, hi, log, scenario, freqs, extra = STUDY[effect]
+        for i in range(a.per_effect):
+            u = rng.random()
+            value = lo * (hi / lo) ** u if log else lo + u * (hi - lo)
+            cases.append((f"{effect}-{i:02d}", effect, key, value, scenario, freqs[i % len(freqs)],
+                          round(rng.uniform(0.01, 0.02), 4), extra))
+    for i in range(a.none):
+        cases.append((f"none-{i:02d}", "none", "", 0.0, "no-flow" if i % 4 else "loaded",
+                       NONE_FREQUENCIES[i % 3], round(rng.uniform(0.01, 0.02), 4),
+                       [] if i % 4 else ["--current-pp", "4", "--current-bias", "2"]))
+
+    table = os.path.join(a.out, "cases.csv")
+    done = set()
+    if os.path.exists(table):
+        with open(table) as f:
+            done = {row["case"] for row in csv.DictReader(f)}
+    else:
+        with open(table, "w") as f:
+            f.write(",".join(COLUMNS) + "\n")
+    case_args = ["--case", a.case] if a.case else []
+    start = time.time()
+    for n, (name, truth, key, value, scenario, freq, noise, extra) in enumerate(cases):
+        if name in done:
+            continue
+        d = os.path.join(a.out, name)
+        synth = [a.rectify, "synth", *case_args, "--effect", truth, "--noise", str(noise),
+                 "--seed", str(1000 + n), "--scenario", scenario, "--frequency", str(freq),
+                 "--cycles", str(a.cycles), "--out", d, *extra]
+        if truth != "none":
+            synth += ["--param", f"{key}={value!r}"]
+        subprocess.run(synth, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        t0 = time.time()
+        subprocess.run([a.rectify, "diagnose", *case_args, "--scenario", scenario, "--data",
+                        os.path.join(d, "data.csv"), "--out", os.path.join(d, "diagnosis")],
+                       check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        wall = time.time() - t0
+        s = json.load(open(os.path.join(d, "diagnosis", "summary.json")))
+        fitted = s["parameters"].get(key, float("nan")) if key else float("nan")
+        rel = abs(fitted / value - 1) if key and s["effect"] == truth else float("nan")
+        before, after = s["residual_before"]["overall"], s["residual_after"]["overall"]
+        row = [name, truth, s["effect"], int(s["effect"] == truth), key, value, fitted, rel, before,
+               after, 1 - after / before, freq, noise, scenario, s["confidence"], round(wall, 1)]
+        with open(table, "a") as f:
+            f.write(",".join(str(x) for x in row) + "\n")
+        print(f"[{n + 1}/{len(cases)}] {name}: named {s['effect']}"
+              + (f", {key} {fitted:.4g} vs {value:.4g} ({100 * rel:.1f} %)" if key and s['effect'] == truth else "")
+              + f", residual {before:.3g} -> {after:.3g}, {wall:.0f} s ({time.time() - start:.0f} s in all)",
+              flush=True)
+    report(a.out, table)
+
+
+def report(out, table):
+    rows = list(csv.DictReader(open(table)))
+    names = list(STUDY) + ["none"]
+    seen = [n for n in names if any(r["truth"] == n for r in rows)]
+    named = sorted({r["named"] for r in rows} | set(seen), key=lambda x: names.index(x) if x in names else 99)
+    md = ["| hidden \\ named | " + " | ".join(named) + " | correct | parameter error (median / max) | shrink (min) |",
+          "|---|" + "---|" * (len(named) + 3)]
+    for t in seen:
+        rs = [r for r in rows if r["truth"] == t]
+        counts = [sum(1 for r in rs if r["named"] == n) for n in named]
+        ok = sum(int(r["correct"]) for r in rs)
+        errs = sorted(float(r["rel_error"]) for r in rs if r["correct"] == "1" and r["rel_error"] != "nan")
+        shrinks = [float(r["shrink"]) for r in rs if r["correct"] == "1"]
+        perr = f"{100 * errs[len(errs) // 2]:.1f} % / {100 * errs[-1]:.1f} %" if errs else "-"
+        shr = f"{100 * min(shrinks):.0f} %" if shrinks and t != "none" else "-"
+        md.append(f"| {t} | " + " | ".join(str(c) for c in counts) + f" | {ok}/{len(rs)} ({100 * ok / len(rs):.0f} %) | {perr} | {shr} |")
+    with open(os.path.join(out, "study.md"), "w") as f:
+        f.write("\n".join(md) + "\n")
+    print("\n".join(md))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,23 @@
+// A new case file: the original's text with some keys set (replaced where
+// the original sets them, else added under their table), each marked with a
+// comment; relative paths of the original made absolute so that the new file
+// works from any folder.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace rectify::diagnosis
+{
+  struct CaseEntry
+  {
+    std::string table, key, value; ///< value as TOML text ("1.5e-3", "\"on\"")
+    std::string comment;
+  };
+
+  /// The edited text. `base_dir` resolves the original's relative paths
+  /// (valves.resistance_map, reed.properties_map, drive.waveform).
+  std::string edit_case_text(const std::string &text, const std::filesystem::path &base_dir,
+                             const std::vector<CaseEntry> &entries);
+} // namespace rectify::diagnosis

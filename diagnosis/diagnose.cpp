@@ -1,0 +1,540 @@
+#include "diagnosis/diagnose.h"
+
+#include <nlopt.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <mutex>
+#include <thread>
+
+#include "common/case_file.h"
+
+namespace rectify::diagnosis
+{
+  namespace
+  {
+    using Clock = std::chrono::steady_clock;
+
+    double seconds_since(Clock::time_point start)
+    {
+      return std::chrono::duration<double>(Clock::now() - start).count();
+    }
+
+    /// Parameters at a point u in [0, 1]^(k): the effect's parameters, then the gain.
+    struct Evaluator
+    {
+      const system::SystemParameters &base;
+      const maps::ResistanceMap      &map;
+      const std::vector<RunCase>     &runs;
+      const Effect                   *effect; // null: none
+      const DiagnoseOptions          &options;
+
+      std::size_t dimension() const { return (effect ? effect->parameters().size() : 0) + 1; }
+
+      std::vector<double> values(const std::vector<double> &u) const
+      {
+        std::vector<double> v;
+        if (effect)
+          for (std::size_t i = 0; i < effect->parameters().size(); ++i)
+            v.push_back(effect->parameters()[i].from_unit(u[i]));
+        return v;
+      }
+      double gain(const std::vector<double> &u) const
+      {
+        return 1.0 + options.gain_range * (2.0 * u.back() - 1.0);
+      }
+      system::SystemParameters parameters(const std::vector<double> &u) const
+      {
+        system::SystemParameters p = base;
+        if (effect)
+          effect->apply(values(u), p);
+        p.transducer.piezomagnetic_coefficient_m_per_A *= gain(u);
+        return p;
+      }
+      /// Sum of squared normalised residuals over the training samples.
+      SquaredResidual training(const std::vector<double> &u) const
+      {
+        const auto      p = parameters(u);
+        SquaredResidual total;
+        for (const auto &rc : runs)
+          {
+            SimulationOptions so;
+            so.relative_tolerance = options.relative_tolerance;
+            so.n_samples          = rc.n_train;
+            const auto model      = simulate_run(p, map, rc.run, rc.setup, so);
+            const auto r          = squared_residual(rc.run, model, rc.scales, 0, rc.n_train);
+            total.sum += r.sum;
+            total.n += r.n;
+          }
+        return total;
+      }
+    };
+
+    struct Objective
+    {
+      const Evaluator *evaluator;
+      int              evaluations = 0;
+      int              failures    = 0;
+      std::size_t      n           = 0;
+      double           best        = 1e300;
+      std::vector<double> best_u;
+    };
+
+    double objective(unsigned n, const double *x, double *, void *data)
+    {
+      auto *o = static_cast<Objective *>(data);
+      std::vector<double> u(x, x + n);
+      ++o->evaluations;
+      double value;
+      try
+        {
+          const auto r = o->evaluator->training(u);
+          o->n         = r.n;
+          value        = r.sum / static_cast<double>(std::max<std::size_t>(r.n, 1));
+          if (!std::isfinite(value))
+            throw std::runtime_error("non-finite residual");
+        }
+      catch (const std::exception &)
+        {
+          ++o->failures;
+          value = 1e6; // the model failed to integrate here: far worse than any fit
+        }
+      if (value < o->best)
+        {
+          o->best   = value;
+          o->best_u = u;
+        }
+      return value;
+    }
+
+    std::vector<Signals> simulate_all(const system::SystemParameters &p,
+                                      const maps::ResistanceMap &map,
+                                      const std::vector<RunCase> &runs, double rtol)
+    {
+      std::vector<Signals> out;
+      for (const auto &rc : runs)
+        {
+          SimulationOptions so;
+          so.relative_tolerance = rtol;
+          out.push_back(simulate_run(p, map, rc.run, rc.setup, so));
+        }
+      return out;
+    }
+
+    /// RMS of normalised residuals over samples [from, to) of every run
+    /// (to = 0: the end), pooled.
+    double pooled_rms(const std::vector<RunCase> &runs, const std::vector<Signals> &model,
+                      bool heldout)
+    {
+      SquaredResidual total;
+      for (std::size_t r = 0; r < runs.size(); ++r)
+        {
+          const auto &rc = runs[r];
+          const auto  s  = heldout ? squared_residual(rc.run, model[r], rc.scales, rc.n_train,
+                                                      rc.run.time_s.size()) :
+                                     squared_residual(rc.run, model[r], rc.scales, 0, rc.n_train);
+          total.sum += s.sum;
+          total.n += s.n;
+        }
+      return std::sqrt(total.sum / static_cast<double>(std::max<std::size_t>(total.n, 1)));
+    }
+
+    CandidateResult fit(const Evaluator &ev, std::vector<Signals> &predictions)
+    {
+      const auto      start = Clock::now();
+      CandidateResult c;
+      c.effect = ev.effect ? ev.effect->name() : "none";
+      Objective o{&ev};
+      const unsigned dim = static_cast<unsigned>(ev.dimension());
+      // coarse grid over the effect's first parameter, gain at 1
+      std::vector<double> u(dim, 0.5);
+      if (ev.effect)
+        for (int g = 0; g < ev.options.grid_points; ++g)
+          {
+            u[0] = (g + 0.5) / ev.options.grid_points;
+            objective(dim, u.data(), nullptr, &o);
+          }
+      else
+        objective(dim, u.data(), nullptr, &o);
+      if (o.best_u.empty())
+        o.best_u = u;
+      std::vector<double> x = o.best_u;
+      nlopt_opt opt = nlopt_create(dim >= 2 ? NLOPT_LN_BOBYQA : NLOPT_LN_COBYLA, dim);
+      std::vector<double> lo(dim, 0.0), hi(dim, 1.0), step(dim, 0.5 / ev.options.grid_points);
+      step.back() = 0.1;
+      nlopt_set_lower_bounds(opt, lo.data());
+      nlopt_set_upper_bounds(opt, hi.data());
+      nlopt_set_initial_step(opt, step.data());
+      nlopt_set_min_objective(opt, objective, &o);
+      nlopt_set_xtol_abs1(opt, 2e-4);
+      nlopt_set_ftol_rel(opt, 1e-7);
+      nlopt_set_maxeval(opt, ev.options.max_evaluations);
+      double            f      = 0;
+      const nlopt_result status = nlopt_optimize(opt, x.data(), &f);
+      nlopt_destroy(opt);
+      c.message = "NLopt status " + std::to_string(static_cast<int>(status));
+      x         = o.best_u; // the best point seen (grid or optimiser)
+
+      c.values      = ev.values(x);
+      c.force_gain  = ev.gain(x);
+      c.k           = static_cast<int>(dim);
+      c.evaluations = o.evaluations;
+      c.failed      = o.failures == o.evaluations;
+      c.n_train     = o.n;
+      c.ssr_train   = o.best * static_cast<double>(o.n);
+      const double n = static_cast<double>(std::max<std::size_t>(o.n, 1));
+      const double lnL = n * std::log(std::max(c.ssr_train, 1e-300) / n);
+      c.bic         = lnL + c.k * std::log(n);
+      c.aic         = lnL + 2.0 * c.k;
+      try
+        {
+          predictions   = simulate_all(ev.parameters(x), ev.map, ev.runs, ev.options.relative_tolerance);
+          c.rms_train   = pooled_rms(ev.runs, predictions, false);
+          c.rms_heldout = pooled_rms(ev.runs, predictions, true);
+        }
+      catch (const std::exception &e)
+        {
+          c.failed  = true;
+          c.message = e.what();
+        }
+      c.wall_time_s = seconds_since(start);
+      return c;
+    }
+
+    std::map<std::string, double> pooled_norms(const std::vector<RunCase> &runs,
+                                               const std::vector<Signals> &model)
+    {
+      std::map<std::string, double> sum;
+      std::map<std::string, int>    count;
+      for (std::size_t r = 0; r < runs.size(); ++r)
+        for (const auto &[name, v] : residual_norms(runs[r].run, model[r], runs[r].scales))
+          {
+            sum[name] += v * v;
+            ++count[name];
+          }
+      for (auto &[name, v] : sum)
+        v = std::sqrt(v / count[name]);
+      return sum;
+    }
+  } // namespace
+
+  RunCase make_run_case(MeasuredRun run, system::Scenario scenario, double frequency_Hz,
+                        double training_fraction)
+  {
+    RunCase rc;
+    rc.setup.scenario     = scenario;
+    rc.setup.frequency_Hz = frequency_Hz > 0 ? frequency_Hz : run.drive_frequency_Hz();
+    rc.scales             = signal_scales(run);
+    rc.n_train = std::max<std::size_t>(
+      10, static_cast<std::size_t>(std::floor(training_fraction * static_cast<double>(run.time_s.size()))));
+    rc.run = std::move(run);
+    return rc;
+  }
+
+  DiagnosisResult diagnose(const system::SystemParameters &base_in, const maps::ResistanceMap &map,
+                           const std::vector<RunCase> &runs, const DiagnoseOptions &options)
+  {
+    const auto start = Clock::now();
+    if (runs.empty())
+      throw InputError("diagnose: no measured runs given");
+    DiagnosisResult result;
+    RunTraits       traits;
+    traits.scenario      = runs.front().setup.scenario;
+    traits.voltage_drive = runs.front().run.drive_column() == "voltage_V";
+    for (const auto &rc : runs)
+      if (rc.run.drive_column() != runs.front().run.drive_column())
+        throw InputError("'" + rc.run.source + "' is driven by " + rc.run.drive_column() + ", '" +
+                         runs.front().run.source + "' by " + runs.front().run.drive_column() +
+                         ": give runs of one kind of drive");
+
+    std::vector<std::shared_ptr<const Effect>> library;
+    if (options.effects.empty())
+      library = effect_library();
+    else
+      for (const auto &name : options.effects)
+        library.push_back(find_effect(name));
+
+    system::SystemParameters base = base_in;
+    result.before = simulate_all(base, map, runs, options.relative_tolerance);
+    for (std::size_t r = 0; r < runs.size(); ++r)
+      result.localisation.push_back(localise(runs[r].run, result.before[r],
+                                             runs[r].setup.frequency_Hz, runs[r].scales));
+    {
+      std::vector<double> f, a, res;
+      for (std::size_t r = 0; r < runs.size(); ++r)
+        {
+          f.push_back(runs[r].setup.frequency_Hz);
+          const auto &d = runs[r].run.signal(runs[r].run.drive_column());
+          a.push_back(*std::max_element(d.begin(), d.end()) - *std::min_element(d.begin(), d.end()));
+          res.push_back(residual_norms(runs[r].run, result.before[r], runs[r].scales).at("overall"));
+        }
+      result.trend_sentences = trends(f, a, res);
+    }
+    std::vector<Signals> current = result.before;
+    std::vector<std::string> named;
+
+    for (int round = 0; round < std::max(1, options.rounds); ++round)
+      {
+        RoundResult rr;
+        std::vector<const Effect *> todo{nullptr};
+        for (const auto &e : library)
+          if (std::find(named.begin(), named.end(), e->name()) == named.end())
+            {
+              const std::string why = e->not_testable(traits);
+              if (why.empty())
+                todo.push_back(e.get());
+              else
+                {
+                  CandidateResult c;
+                  c.effect       = e->name();
+                  c.not_testable = why;
+                  rr.candidates.push_back(c);
+                }
+            }
+        std::vector<CandidateResult>      fitted(todo.size());
+        std::vector<std::vector<Signals>> predictions(todo.size());
+        std::atomic<std::size_t>          next{0};
+        std::mutex                        mutex;
+        const unsigned threads = std::max(1u, std::min<unsigned>(
+          options.threads ? options.threads : std::thread::hardware_concurrency(),
+          static_cast<unsigned>(todo.size())));
+        std::vector<std::thread> pool;
+        std::exception_ptr       error;
+        for (unsigned t = 0; t < threads; ++t)
+          pool.emplace_back([&] {
+            for (std::size_t i; (i = next++) < todo.size();)
+              {
+                try
+                  {
+                    Evaluator ev{base, map, runs, todo[i], options};
+                    fitted[i] = fit(ev, predictions[i]);
+                  }
+                catch (...)
+                  {
+                    std::lock_guard lock(mutex);
+                    error = std::current_exception();
+                    continue;
+                  }
+                if (options.progress)
+                  {
+                    std::lock_guard lock(mutex);
+                    char            buf[256];
+                    std::snprintf(buf, sizeof buf, "%-18s BIC %.6g, held-out RMS %.4g, %d runs of the model, %.1f s",
+                                  fitted[i].effect.c_str(), fitted[i].bic, fitted[i].rms_heldout,
+                                  fitted[i].evaluations, fitted[i].wall_time_s);
+                    options.progress(buf);
+                  }
+              }
+          });
+        for (auto &t : pool)
+          t.join();
+        if (error)
+          std::rethrow_exception(error);
+
+        const CandidateResult &none = fitted[0];
+        double bic_min = 1e300;
+        for (const auto &c : fitted)
+          if (!c.failed)
+            bic_min = std::min(bic_min, c.bic);
+        double weight_sum = 0;
+        for (const auto &c : fitted)
+          if (!c.failed)
+            weight_sum += std::exp(-0.5 * (c.bic - bic_min));
+        // rank the effects by BIC
+        std::vector<std::size_t> order;
+        for (std::size_t i = 1; i < fitted.size(); ++i)
+          if (!fitted[i].failed)
+            order.push_back(i);
+        std::sort(order.begin(), order.end(),
+                  [&](auto a, auto b) { return fitted[a].bic < fitted[b].bic; });
+
+        // the dominant feature of the residual before this round
+        double worst = -1;
+        std::string signal, half;
+        for (std::size_t r = 0; r < runs.size(); ++r)
+          {
+            const auto L = localise(runs[r].run, current[r], runs[r].setup.frequency_Hz, runs[r].scales);
+            const auto v = L.numbers[L.dominant_signal]["rms_normalised"].get<double>();
+            if (v > worst)
+              {
+                worst  = v;
+                signal = L.dominant_signal;
+                half   = L.dominant_half;
+              }
+          }
+        const auto feature = [&](const std::vector<Signals> &model) {
+          double s = 0;
+          for (std::size_t r = 0; r < runs.size(); ++r)
+            {
+              const double v = half_cycle_residual(runs[r].run, model[r], runs[r].setup.frequency_Hz,
+                                                   signal, half, runs[r].scales);
+              s += v * v;
+            }
+          return std::sqrt(s / static_cast<double>(runs.size()));
+        };
+        const double feature_before = feature(current);
+
+        std::string reasons;
+        for (std::size_t i : order)
+          {
+            const auto  &c     = fitted[i];
+            const double delta = none.bic - c.bic;
+            char         buf[512];
+            if (delta <= options.bic_threshold)
+              {
+                std::snprintf(buf, sizeof buf, "%s: BIC better than none by only %.1f (needs > %.0f). ",
+                              c.effect.c_str(), delta, options.bic_threshold);
+                reasons += buf;
+                break; // the rest rank lower still
+              }
+            if (!(c.rms_heldout < none.rms_heldout))
+              {
+                std::snprintf(buf, sizeof buf, "%s: held-out residual %.4g not below none's %.4g. ",
+                              c.effect.c_str(), c.rms_heldout, none.rms_heldout);
+                reasons += buf;
+                continue;
+              }
+            const double after = feature(predictions[i]);
+            if (!(after <= 0.5 * feature_before))
+              {
+                std::snprintf(buf, sizeof buf,
+                              "%s: explains too little of the dominant feature (%s, %s half: %.3g -> %.3g). ",
+                              c.effect.c_str(), signal.c_str(), half.c_str(), feature_before, after);
+                reasons += buf;
+                continue;
+              }
+            rr.effect     = c.effect;
+            rr.values     = c.values;
+            rr.force_gain = c.force_gain;
+            rr.confidence = std::exp(-0.5 * (c.bic - bic_min)) / weight_sum;
+            rr.signature_explained = true;
+            std::snprintf(buf, sizeof buf,
+                          "dominant residual feature (%s, %s half) %.3g -> %.3g of its swing", signal.c_str(),
+                          half.c_str(), feature_before, after);
+            rr.signature_detail = buf;
+            std::snprintf(buf, sizeof buf,
+                          "%s: BIC better than none by %.1f, held-out RMS %.4g vs none's %.4g, "
+                          "next best %s by %.1f; ",
+                          c.effect.c_str(), delta, c.rms_heldout, none.rms_heldout,
+                          order.size() > 1 ? fitted[order[order[0] == i ? 1 : 0]].effect.c_str() : "-",
+                          order.size() > 1 ? fitted[order[order[0] == i ? 1 : 0]].bic - c.bic : 0.0);
+            rr.decision = std::string(buf) + rr.signature_detail;
+            current     = predictions[i];
+            break;
+          }
+        if (rr.effect == "none")
+          {
+            rr.values     = {};
+            rr.force_gain = none.force_gain;
+            rr.confidence = std::exp(-0.5 * (none.bic - bic_min)) / weight_sum;
+            rr.decision   = "no significant missing effect: " + reasons;
+            current       = predictions[0];
+          }
+        for (auto &c : fitted)
+          rr.candidates.push_back(c);
+        result.rounds.push_back(rr);
+        // the model the next round starts from
+        if (rr.effect != "none")
+          {
+            find_effect(rr.effect)->apply(rr.values, base);
+            named.push_back(rr.effect);
+          }
+        base.transducer.piezomagnetic_coefficient_m_per_A *= rr.force_gain;
+        if (rr.effect == "none")
+          break;
+      }
+    result.final_parameters = base;
+    result.after            = current;
+    result.residual_before  = pooled_norms(runs, result.before);
+    result.residual_after   = pooled_norms(runs, result.after);
+    result.wall_time_s      = seconds_since(start);
+    return result;
+  }
+
+  nlohmann::json to_json(const DiagnosisResult &r, const std::vector<RunCase> &runs)
+  {
+    using nlohmann::json;
+    const auto &first = r.rounds.front();
+    json        parameters = json::object();
+    json        rounds     = json::array();
+    for (const auto &rr : r.rounds)
+      {
+        json p = json::object();
+        if (rr.effect != "none")
+          {
+            const auto e = find_effect(rr.effect);
+            for (std::size_t i = 0; i < rr.values.size(); ++i)
+              p[e->parameters()[i].key] = rr.values[i];
+          }
+        json candidates = json::array();
+        for (const auto &c : rr.candidates)
+          {
+            json cp = json::object();
+            if (c.effect != "none" && c.not_testable.empty())
+              {
+                const auto e = find_effect(c.effect);
+                for (std::size_t i = 0; i < c.values.size(); ++i)
+                  cp[e->parameters()[i].key] = c.values[i];
+              }
+            json cj = {{"effect", c.effect}, {"parameters", cp}};
+            if (!c.not_testable.empty())
+              cj["not_testable"] = c.not_testable;
+            else
+              {
+                cj["force_gain"]   = c.force_gain;
+                cj["k"]            = c.k;
+                cj["bic"]          = c.bic;
+                cj["aic"]          = c.aic;
+                cj["rms_train"]    = c.rms_train;
+                cj["rms_heldout"]  = c.rms_heldout;
+                cj["evaluations"]  = c.evaluations;
+                cj["wall_time_s"]  = c.wall_time_s;
+                cj["failed"]       = c.failed;
+                cj["optimiser"]    = c.message;
+              }
+            candidates.push_back(cj);
+          }
+        rounds.push_back({{"effect", rr.effect},
+                          {"parameters", p},
+                          {"force_gain", rr.force_gain},
+                          {"confidence", rr.confidence},
+                          {"decision", rr.decision},
+                          {"signature_explained", rr.signature_explained},
+                          {"signature", rr.signature_detail},
+                          {"candidates", candidates}});
+        if (&rr == &first)
+          parameters = p;
+      }
+    json localisation = json::array();
+    for (std::size_t i = 0; i < runs.size(); ++i)
+      localisation.push_back({{"run", runs[i].run.source},
+                              {"frequency_Hz", runs[i].setup.frequency_Hz},
+                              {"sentences", r.localisation[i].sentences},
+                              {"numbers", r.localisation[i].numbers}});
+    double shrink = 0;
+    if (r.residual_before.at("overall") > 0)
+      shrink = 1.0 - r.residual_after.at("overall") / r.residual_before.at("overall");
+    return {{"effect", first.effect},
+            {"parameters", parameters},
+            {"confidence", first.confidence},
+            {"decision", first.decision},
+            {"residual_before", r.residual_before},
+            {"residual_after", r.residual_after},
+            {"residual_shrink", shrink},
+            {"candidates", rounds.front()["candidates"]},
+            {"rounds", rounds},
+            {"localisation", localisation},
+            {"trends", r.trend_sentences},
+            {"wall_time_s", r.wall_time_s},
+            {"definitions",
+             {{"residual", "RMS of (model - data) / (the measured signal's RMS about its mean), per signal "
+                           "over every run; overall: RMS over the signals"},
+              {"bic", "n ln(SSR/n) + k ln n on the training samples (first part of each run)"},
+              {"aic", "n ln(SSR/n) + 2k"},
+              {"rms_heldout", "normalised RMS residual on the last part of each run, unseen by the fit"},
+              {"confidence", "BIC weight exp(-BIC/2) / sum over the candidates"},
+              {"force_gain", "nuisance: the rod's force per ampere times this, fitted with every candidate"}}}};
+  }
+} // namespace rectify::diagnosis

@@ -1,0 +1,61 @@
+#include "diagnosis/effect.h"
+
+#include <cmath>
+
+#include "common/case_file.h"
+
+namespace rectify::diagnosis
+{
+  double EffectParameter::mid() const
+  {
+    return log_scale ? std::sqrt(lower * upper) : 0.5 * (lower + upper);
+  }
+
+  double EffectParameter::to_unit(double value) const
+  {
+    return log_scale ? std::log(value / lower) / std::log(upper / lower) :
+                       (value - lower) / (upper - lower);
+  }
+
+  double EffectParameter::from_unit(double u) const
+  {
+    return log_scale ? lower * std::pow(upper / lower, u) : lower + u * (upper - lower);
+  }
+
+  Effect::Effect(std::string name, std::string physics, std::string signature,
+                 std::vector<EffectParameter> parameters, Apply apply,
+                 std::vector<FixedKey> fixed_keys)
+    : name_(std::move(name))
+    , physics_(std::move(physics))
+    , signature_(std::move(signature))
+    , parameters_(std::move(parameters))
+    , apply_(std::move(apply))
+    , fixed_keys_(std::move(fixed_keys))
+  {}
+
+  void Effect::apply(std::span<const double> values, system::SystemParameters &p) const
+  {
+    if (values.size() != parameters_.size())
+      throw std::logic_error("effect " + name_ + ": " + std::to_string(values.size()) +
+                             " values for " + std::to_string(parameters_.size()) + " parameters");
+    apply_(values, p);
+  }
+
+  std::string Effect::not_testable(const RunTraits &) const { return {}; }
+
+  std::shared_ptr<const Effect> find_effect(const std::string &name)
+  {
+    for (const auto &e : effect_library())
+      if (e->name() == name)
+        return e;
+    throw InputError("unknown effect '" + name + "' (known: " + effect_names() + ")");
+  }
+
+  std::string effect_names()
+  {
+    std::string names;
+    for (const auto &e : effect_library())
+      names += (names.empty() ? "" : ", ") + e->name();
+    return names;
+  }
+} // namespace rectify::diagnosis

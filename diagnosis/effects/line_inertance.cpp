@@ -1,0 +1,20 @@
+// line_inertance: the oil in the outlet line has mass; accelerating it takes a
+// pressure difference L dq/dt (L = rho l / A for a tube).
+#include "diagnosis/effect.h"
+
+namespace rectify::diagnosis
+{
+  std::shared_ptr<const Effect> make_line_inertance()
+  {
+    return std::make_shared<Effect>(
+      "line_inertance",
+      "fluid inertance of the outlet line, L dq/dt in series with the line's resistance",
+      "the outlet flow lags the chamber: the outlet valve's pressure drop overshoots at each "
+      "opening and the outlet pressure rings; grows with frequency",
+      std::vector<EffectParameter>{{"lines", "outlet_inertance_Pa_s2_per_m3", 1e6, 1e9, true,
+                                    "inertance of the outlet line (rho l / A)"}},
+      [](std::span<const double> v, system::SystemParameters &p) {
+        p.lines.outlet_inertance_Pa_s2_per_m3 = v[0];
+      });
+  }
+} // namespace rectify::diagnosis

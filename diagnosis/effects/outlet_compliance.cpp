@@ -1,0 +1,21 @@
+// outlet_compliance: a soft element on the outlet side (a seal, a hose) that
+// stores oil as the outlet pressure rises.
+#include "diagnosis/effect.h"
+
+namespace rectify::diagnosis
+{
+  std::shared_ptr<const Effect> make_outlet_compliance()
+  {
+    return std::make_shared<Effect>(
+      "outlet_compliance",
+      "extra compliance on the high (outlet) side, a soft seal or hose, in parallel with the "
+      "oil column's",
+      "outlet pressure rises more slowly from cycle to cycle and ripples less; the chamber is "
+      "unaffected while the outlet valve is shut",
+      std::vector<EffectParameter>{{"cylinder", "seal_compliance_m3_per_Pa", 3e-13, 3e-10, true,
+                                    "extra high-side compliance"}},
+      [](std::span<const double> v, system::SystemParameters &p) {
+        p.cylinder.seal_compliance_m3_per_Pa = v[0];
+      });
+  }
+} // namespace rectify::diagnosis

@@ -1,0 +1,35 @@
+// piston_friction: Coulomb friction of the output piston's seals.
+#include "diagnosis/effect.h"
+
+namespace rectify::diagnosis
+{
+  namespace
+  {
+    class PistonFriction : public Effect
+    {
+    public:
+      using Effect::Effect;
+      std::string not_testable(const RunTraits &traits) const override
+      {
+        return traits.scenario == system::Scenario::loaded ?
+                 "" :
+                 "in a no-flow run the output piston is held: its friction does nothing";
+      }
+    };
+  } // namespace
+
+  std::shared_ptr<const Effect> make_piston_friction()
+  {
+    return std::make_shared<PistonFriction>(
+      "piston_friction",
+      "Coulomb friction on the output piston, F_c tanh(v / v_s) with v_s = "
+      "[load] friction_velocity_scale_m_per_s",
+      "the loaded actuator moves slower by a constant force's worth, F_c / A_po of pressure "
+      "difference; the outlet pressure sits higher",
+      std::vector<EffectParameter>{{"load", "coulomb_friction_N", 1.0, 100.0, true,
+                                    "Coulomb friction force on the output piston"}},
+      [](std::span<const double> v, system::SystemParameters &p) {
+        p.load.coulomb_friction_N = v[0];
+      });
+  }
+} // namespace rectify::diagnosis

@@ -1,0 +1,134 @@
+#include "diagnosis/observation.h"
+
+#include <cmath>
+#include <numbers>
+
+#include "common/case_file.h"
+#include "system/simulation.h"
+
+namespace rectify::diagnosis
+{
+  const std::vector<std::string> &signal_columns()
+  {
+    static const std::vector<std::string> columns{"outlet_pressure_Pa",  "chamber_pressure_Pa",
+                                                  "outlet_valve_m",      "strain",
+                                                  "actuator_position_m", "actuator_velocity_m_per_s"};
+    return columns;
+  }
+
+  std::vector<double> low_pass(const std::vector<double> &t, const std::vector<double> &v,
+                               double cutoff_Hz)
+  {
+    const std::size_t n = v.size();
+    if (n < 3)
+      return v;
+    const double dt = (t.back() - t.front()) / static_cast<double>(n - 1);
+    for (std::size_t i = 1; i < n; ++i)
+      if (std::abs(t[i] - t[i - 1] - dt) > 0.01 * dt)
+        return v; // not uniformly sampled: left as measured
+    const double fc = cutoff_Hz * dt; // cycles per sample
+    if (!(fc < 0.4))
+      return v; // the cutoff is near Nyquist: nothing to remove
+    const auto half = static_cast<long>(std::ceil(3.0 / fc));
+    std::vector<double> kernel(static_cast<std::size_t>(2 * half + 1));
+    for (long k = -half; k <= half; ++k)
+      {
+        const double x      = 2.0 * fc * static_cast<double>(k);
+        const double sinc   = k == 0 ? 1.0 : std::sin(std::numbers::pi * x) / (std::numbers::pi * x);
+        const double w      = static_cast<double>(k + half) / static_cast<double>(2 * half);
+        const double window = 0.42 - 0.5 * std::cos(2 * std::numbers::pi * w) +
+                              0.08 * std::cos(4 * std::numbers::pi * w); // Blackman
+        kernel[static_cast<std::size_t>(k + half)] = sinc * window;
+      }
+    // even (mirror) extension at both ends: exact for a record that starts
+    // (or ends) at a turning point of the drive, as a run from rest does
+    const auto at = [&](long j) {
+      const long last = static_cast<long>(n) - 1;
+      while (j < 0 || j > last)
+        j = j < 0 ? -j : 2 * last - j;
+      return v[static_cast<std::size_t>(j)];
+    };
+    double weight = 0;
+    for (double w : kernel)
+      weight += w;
+    std::vector<double> out(n);
+    for (std::size_t i = 0; i < n; ++i)
+      {
+        double sum = 0;
+        for (long k = -half; k <= half; ++k)
+          sum += kernel[static_cast<std::size_t>(k + half)] * at(static_cast<long>(i) + k);
+        out[i] = sum / weight;
+      }
+    return out;
+  }
+
+  system::Drive measured_drive(const MeasuredRun &run, double frequency_Hz)
+  {
+    std::vector<double> t(run.time_s.size());
+    for (std::size_t i = 0; i < t.size(); ++i)
+      t[i] = run.time_s[i] - run.time_s.front();
+    const std::string &column = run.drive_column();
+    auto values = low_pass(t, run.signal(column), drive_cutoff_harmonic * frequency_Hz);
+    return system::Drive::from_samples(std::move(t), std::move(values), frequency_Hz,
+                                       column == "voltage_V", run.source);
+  }
+
+  Signals simulate_drive(const system::SystemParameters &p, const maps::ResistanceMap &map,
+                         const system::Drive &drive, system::Scenario scenario,
+                         const std::vector<double> &times, double relative_tolerance)
+  {
+    using namespace system;
+    Model model(p, map, ValveModel::dynamic, scenario, drive);
+    model.reset();
+    RunOptions ro;
+    ro.relative_tolerance        = relative_tolerance;
+    ro.absolute_tolerance_factor = p.solver.absolute_tolerance_factor;
+    ro.samples_per_cycle         = 200;
+    const auto y0 = model.initial_state();
+    auto       io = integrator_options(model, ro);
+    io.quiet      = true; // a fit explores parameters where the model may fail: it says so itself
+    Integrator integrator(model, 0.0, y0, io);
+
+    const bool loaded = scenario == Scenario::loaded;
+    Signals    out;
+    for (const auto &c : signal_columns())
+      if (loaded || (c != "actuator_position_m" && c != "actuator_velocity_m_per_s"))
+        out[c].reserve(times.size());
+    const double p_bias = p.fluid.bias_pressure_Pa, rod = p.transducer.rod_length_m;
+    for (double t : times)
+      {
+        if (t > integrator.time())
+          integrator.advance_to(t);
+        const auto  y = integrator.state();
+        const Flows f = model.flows(y);
+        out["outlet_pressure_Pa"].push_back(p_bias + f.p_outlet);
+        out["chamber_pressure_Pa"].push_back(p_bias + y[state::chamber_p]);
+        out["outlet_valve_m"].push_back(model.opening(0, y));
+        out["strain"].push_back(y[state::piston_x] / rod);
+        if (loaded)
+          {
+            out["actuator_position_m"].push_back(y[state::actuator_x]);
+            out["actuator_velocity_m_per_s"].push_back(y[state::actuator_v]);
+          }
+      }
+    return out;
+  }
+
+  Signals simulate_run(const system::SystemParameters &p, const maps::ResistanceMap &map,
+                       const MeasuredRun &run, const RunSetup &setup,
+                       const SimulationOptions &options)
+  {
+    const std::size_t n =
+      options.n_samples > 0 ? std::min(options.n_samples, run.time_s.size()) : run.time_s.size();
+    std::vector<double> times(n);
+    for (std::size_t i = 0; i < n; ++i)
+      times[i] = run.time_s[i] - run.time_s.front();
+    Signals all = simulate_drive(p, map, measured_drive(run, setup.frequency_Hz), setup.scenario,
+                                 times, options.relative_tolerance);
+    Signals out;
+    for (auto &[name, values] : all)
+      if (run.has(name))
+        out[name] = std::move(values);
+    return out;
+  }
+} // namespace rectify::diagnosis

@@ -1,0 +1,307 @@
+#include "diagnosis/residuals.h"
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <numbers>
+
+#include "common/case_file.h"
+
+namespace rectify::diagnosis
+{
+  namespace
+  {
+    double rms_about_mean(const std::vector<double> &v)
+    {
+      double mean = 0, var = 0;
+      for (double x : v)
+        mean += x / static_cast<double>(v.size());
+      for (double x : v)
+        var += (x - mean) * (x - mean) / static_cast<double>(v.size());
+      return std::sqrt(var);
+    }
+
+    std::string pretty(const std::string &signal)
+    {
+      if (signal == "outlet_pressure_Pa")
+        return "outlet pressure";
+      if (signal == "chamber_pressure_Pa")
+        return "chamber pressure";
+      if (signal == "outlet_valve_m")
+        return "outlet valve opening";
+      if (signal == "actuator_position_m")
+        return "actuator position";
+      if (signal == "actuator_velocity_m_per_s")
+        return "actuator velocity";
+      return signal;
+    }
+
+    /// Value in the signal's display unit, with the unit.
+    std::string in_units(const std::string &signal, double v)
+    {
+      char buf[64];
+      if (signal.ends_with("_Pa"))
+        std::snprintf(buf, sizeof buf, "%.3g MPa", v / 1e6);
+      else if (signal == "outlet_valve_m")
+        std::snprintf(buf, sizeof buf, "%.3g um", v * 1e6);
+      else if (signal == "actuator_position_m")
+        std::snprintf(buf, sizeof buf, "%.3g mm", v * 1e3);
+      else if (signal == "actuator_velocity_m_per_s")
+        std::snprintf(buf, sizeof buf, "%.3g mm/s", v * 1e3);
+      else
+        std::snprintf(buf, sizeof buf, "%.3g", v);
+      return buf;
+    }
+
+    std::string percent(double fraction)
+    {
+      char buf[32];
+      std::snprintf(buf, sizeof buf, "%.0f %%", 100 * fraction);
+      return buf;
+    }
+
+    /// Cycle phase in [0, 1) at time t (record starts at phase 0: the drive's
+    /// minimum for the synthesiser's sine; the rising half is the stroke).
+    double phase(double t, double f) { return t * f - std::floor(t * f); }
+  } // namespace
+
+  std::map<std::string, double> signal_scales(const MeasuredRun &run)
+  {
+    std::map<std::string, double> s;
+    for (const auto &c : signal_columns())
+      if (run.has(c))
+        {
+          const double r = rms_about_mean(run.signal(c));
+          s[c]           = r > 0 ? r : 1.0;
+        }
+    return s;
+  }
+
+  SquaredResidual squared_residual(const MeasuredRun &run, const Signals &model,
+                                   const std::map<std::string, double> &scales, std::size_t from,
+                                   std::size_t to)
+  {
+    SquaredResidual r;
+    for (const auto &[name, values] : model)
+      {
+        const auto  &data  = run.signal(name);
+        const double scale = scales.at(name);
+        const auto   end   = std::min({to, values.size(), data.size()});
+        for (std::size_t i = from; i < end; ++i)
+          {
+            const double e = (values[i] - data[i]) / scale;
+            r.sum += e * e;
+            ++r.n;
+          }
+      }
+    return r;
+  }
+
+  std::map<std::string, double> residual_norms(const MeasuredRun &run, const Signals &model,
+                                               const std::map<std::string, double> &scales)
+  {
+    std::map<std::string, double> out;
+    double                        total = 0;
+    for (const auto &[name, values] : model)
+      {
+        const Signals one{{name, values}};
+        const auto    r = squared_residual(run, one, scales, 0, values.size());
+        out[name]       = std::sqrt(r.sum / static_cast<double>(std::max<std::size_t>(r.n, 1)));
+        total += out[name] * out[name];
+      }
+    out["overall"] = std::sqrt(total / static_cast<double>(std::max<std::size_t>(model.size(), 1)));
+    return out;
+  }
+
+  double half_cycle_residual(const MeasuredRun &run, const Signals &model, double f,
+                             const std::string &signal, const std::string &half,
+                             const std::map<std::string, double> &scales)
+  {
+    const auto it = model.find(signal);
+    if (it == model.end())
+      return 0;
+    const auto &data = run.signal(signal);
+    double      sum = 0;
+    std::size_t n   = 0;
+    for (std::size_t i = 0; i < it->second.size(); ++i)
+      {
+        const bool stroke = phase(run.time_s[i] - run.time_s.front(), f) < 0.5;
+        if (stroke != (half == "pressurising"))
+          continue;
+        const double e = (it->second[i] - data[i]) / scales.at(signal);
+        sum += e * e;
+        ++n;
+      }
+    return std::sqrt(sum / static_cast<double>(std::max<std::size_t>(n, 1)));
+  }
+
+  Localisation localise(const MeasuredRun &run, const Signals &model, double f,
+                        const std::map<std::string, double> &scales)
+  {
+    Localisation L;
+    L.numbers        = nlohmann::json::object();
+    const auto norms = residual_norms(run, model, scales);
+    double     worst = -1;
+    for (const auto &[name, v] : norms)
+      if (name != "overall" && v > worst)
+        {
+          worst             = v;
+          L.dominant_signal = name;
+        }
+    const double t0 = run.time_s.front(), T = 1.0 / f;
+    const double duration = run.time_s.back() - t0;
+    const auto   n_cycles = static_cast<std::size_t>(std::floor(duration / T + 1e-9));
+
+    for (const auto &[name, values] : model)
+      {
+        const auto  &data  = run.signal(name);
+        const double scale = scales.at(name);
+        const std::size_t n = values.size();
+        // cycle halves, thirds of the record, mean offset
+        double      e_half[2] = {0, 0}, e_third[3] = {0, 0, 0}, bias = 0;
+        std::size_t n_half[2] = {0, 0}, n_third[3] = {0, 0, 0};
+        for (std::size_t i = 0; i < n; ++i)
+          {
+            const double t  = run.time_s[i] - t0;
+            const double e  = values[i] - data[i];
+            const int    h  = phase(t, f) < 0.5 ? 0 : 1;
+            const int    th = std::min(2, static_cast<int>(3.0 * t / std::max(duration, 1e-300)));
+            e_half[h] += e * e;
+            ++n_half[h];
+            e_third[th] += e * e;
+            ++n_third[th];
+            bias += e / static_cast<double>(n);
+          }
+        const double total = e_half[0] + e_half[1];
+        // harmonics of the residual over the whole cycles of the second half of the record
+        const std::size_t c_from = n_cycles / 2, c_to = n_cycles;
+        std::vector<double> amp(11, 0.0); // 0: mean, 1..10 harmonics
+        double              energy = 0;
+        std::size_t         m      = 0;
+        for (std::size_t i = 0; i < n; ++i)
+          {
+            const double t = run.time_s[i] - t0;
+            if (t < static_cast<double>(c_from) * T || t >= static_cast<double>(c_to) * T)
+              continue;
+            ++m;
+          }
+        std::vector<std::complex<double>> c(11);
+        for (std::size_t i = 0; i < n; ++i)
+          {
+            const double t = run.time_s[i] - t0;
+            if (t < static_cast<double>(c_from) * T || t >= static_cast<double>(c_to) * T)
+              continue;
+            const double e = values[i] - data[i];
+            energy += e * e / static_cast<double>(m);
+            for (int k = 0; k <= 10; ++k)
+              c[k] += e * std::polar(1.0, -2 * std::numbers::pi * k * f * t) / static_cast<double>(m);
+          }
+        for (int k = 0; k <= 10; ++k)
+          amp[k] = (k == 0 ? 1.0 : 2.0) * std::abs(c[k]);
+        double harmonic_energy = amp[0] * amp[0];
+        for (int k = 1; k <= 10; ++k)
+          harmonic_energy += 0.5 * amp[k] * amp[k];
+        int top = 1;
+        for (int k = 1; k <= 10; ++k)
+          if (amp[k] > amp[top])
+            top = k;
+        const double above = energy > 0 ? std::max(0.0, 1.0 - harmonic_energy / energy) : 0.0;
+        // per-cycle swing (max - min) in data and model, mean over the second half
+        double swing_data = 0, swing_model = 0;
+        std::size_t n_sw = 0;
+        for (std::size_t k = c_from; k < c_to; ++k)
+          {
+            double dmin = 1e300, dmax = -1e300, mmin = 1e300, mmax = -1e300;
+            for (std::size_t i = 0; i < n; ++i)
+              {
+                const double t = run.time_s[i] - t0;
+                if (t < static_cast<double>(k) * T || t >= static_cast<double>(k + 1) * T)
+                  continue;
+                dmin = std::min(dmin, data[i]);
+                dmax = std::max(dmax, data[i]);
+                mmin = std::min(mmin, values[i]);
+                mmax = std::max(mmax, values[i]);
+              }
+            if (dmax >= dmin)
+              {
+                swing_data += dmax - dmin;
+                swing_model += mmax - mmin;
+                ++n_sw;
+              }
+          }
+        if (n_sw > 0)
+          {
+            swing_data /= static_cast<double>(n_sw);
+            swing_model /= static_cast<double>(n_sw);
+          }
+        const double rms_third[3] = {std::sqrt(e_third[0] / std::max<double>(1, n_third[0])),
+                                     std::sqrt(e_third[1] / std::max<double>(1, n_third[1])),
+                                     std::sqrt(e_third[2] / std::max<double>(1, n_third[2]))};
+        L.numbers[name] = {
+          {"rms_normalised", norms.at(name)},
+          {"rms", norms.at(name) * scale},
+          {"mean_model_minus_data", bias},
+          {"pressurising_fraction", total > 0 ? e_half[0] / total : 0.0},
+          {"refill_fraction", total > 0 ? e_half[1] / total : 0.0},
+          {"harmonic_amplitudes", amp},
+          {"dominant_harmonic", top},
+          {"energy_above_10th_harmonic_fraction", above},
+          {"rms_by_third_of_record", {rms_third[0], rms_third[1], rms_third[2]}},
+          {"cycle_swing_data", swing_data},
+          {"cycle_swing_model", swing_model}};
+        if (name == L.dominant_signal)
+          L.dominant_half = e_half[0] >= e_half[1] ? "pressurising" : "refill";
+
+        if (norms.at(name) < 0.03) // within a few percent of the swing: not worth a sentence
+          continue;
+        std::string s = pretty(name) + ": residual " + in_units(name, norms.at(name) * scale) +
+                        " RMS (" + percent(norms.at(name)) + " of its swing), " +
+                        percent(total > 0 ? std::max(e_half[0], e_half[1]) / total : 0) +
+                        " of it in the " + (e_half[0] >= e_half[1] ? "pressurising stroke" : "refill") +
+                        "; model " + (bias > 0 ? "above" : "below") + " the data by " +
+                        in_units(name, std::abs(bias)) + " on average";
+        s += "; per cycle the data swing " + in_units(name, swing_data) + ", the model " +
+             in_units(name, swing_model);
+        if (above > 0.3)
+          s += "; " + percent(above) + " of the residual above the 10th harmonic (fast ringing)";
+        else
+          s += "; mostly at harmonic " + std::to_string(top) + " (" + in_units(name, amp[top]) + ")";
+        const double growth = rms_third[0] > 0 ? rms_third[2] / rms_third[0] : 0;
+        if (growth > 1.5)
+          s += "; grows over the record (last third " + format_number(std::round(growth * 10) / 10) +
+               " x the first)";
+        else if (growth > 0 && growth < 1 / 1.5)
+          s += "; fades over the record (start-up transient)";
+        L.sentences.push_back(s);
+      }
+    if (L.sentences.empty())
+      L.sentences.push_back("every signal within 3 % of its swing: no clear disagreement");
+    return L;
+  }
+
+  std::vector<std::string> trends(const std::vector<double> &f, const std::vector<double> &a,
+                                  const std::vector<double> &r)
+  {
+    std::vector<std::string> out;
+    if (f.size() < 2)
+      return out;
+    const auto describe = [&](const std::vector<double> &x, const std::string &what,
+                              const std::string &unit) {
+      std::vector<std::size_t> idx(x.size());
+      for (std::size_t i = 0; i < idx.size(); ++i)
+        idx[i] = i;
+      std::sort(idx.begin(), idx.end(), [&](auto i, auto j) { return x[i] < x[j]; });
+      if (x[idx.front()] == x[idx.back()])
+        return;
+      std::string s = "residual against " + what + ":";
+      for (auto i : idx)
+        s += " " + format_number(std::round(x[i] * 10) / 10) + " " + unit + " -> " + percent(r[i]) + ";";
+      const double lo = r[idx.front()], hi = r[idx.back()];
+      s += hi > 1.5 * lo ? " grows with " + what : lo > 1.5 * hi ? " falls with " + what : " about flat";
+      out.push_back(s);
+    };
+    describe(f, "frequency", "Hz");
+    describe(a, "drive amplitude", "(drive units p-p)");
+    return out;
+  }
+} // namespace rectify::diagnosis

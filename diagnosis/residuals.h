@@ -1,0 +1,60 @@
+// Residuals between a measured run and the model, and where they lie
+// (issue 4, step 2): which signal, which part of the pumping cycle
+// (pressurising stroke or refill), which harmonics of the pumping frequency,
+// which trend over the record and over the runs' frequencies and amplitudes.
+//
+// Residuals are normalised per signal by the measured signal's RMS about its
+// mean (its "swing"), so that pressures, openings and strains add up.
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "diagnosis/measured_run.h"
+#include "diagnosis/observation.h"
+
+namespace rectify::diagnosis
+{
+  /// Normalisation of each measured signal: its RMS about its mean.
+  std::map<std::string, double> signal_scales(const MeasuredRun &run);
+
+  /// Sum of squared normalised residuals over samples [from, to) of every
+  /// signal in `model`, and the number of terms.
+  struct SquaredResidual
+  {
+    double      sum = 0;
+    std::size_t n   = 0;
+  };
+  SquaredResidual squared_residual(const MeasuredRun &run, const Signals &model,
+                                   const std::map<std::string, double> &scales, std::size_t from,
+                                   std::size_t to);
+
+  /// Normalised RMS residual per signal over the whole record, and "overall"
+  /// (the RMS over signals).
+  std::map<std::string, double> residual_norms(const MeasuredRun &run, const Signals &model,
+                                               const std::map<std::string, double> &scales);
+
+  /// One run's residual described: numbers (json) and sentences.
+  struct Localisation
+  {
+    nlohmann::json           numbers;
+    std::vector<std::string> sentences;
+    std::string              dominant_signal; ///< largest normalised residual
+    std::string              dominant_half;   ///< "pressurising" or "refill"
+  };
+  Localisation localise(const MeasuredRun &run, const Signals &model, double frequency_Hz,
+                        const std::map<std::string, double> &scales);
+
+  /// Sentences on trends over several runs: residual against frequency and
+  /// drive amplitude.
+  std::vector<std::string> trends(const std::vector<double> &frequencies_Hz,
+                                  const std::vector<double> &drive_amplitudes,
+                                  const std::vector<double> &overall_residuals);
+
+  /// Residual energy of `signal` in the given half of the cycle over the
+  /// record (for the signature check), normalised.
+  double half_cycle_residual(const MeasuredRun &run, const Signals &model, double frequency_Hz,
+                             const std::string &signal, const std::string &half,
+                             const std::map<std::string, double> &scales);
+} // namespace rectify::diagnosis
