@@ -190,14 +190,13 @@ namespace rectify::app
             const auto e = diagnosis::find_effect(rr.effect);
             effects_named += (effects_named.empty() ? "" : "+") + rr.effect;
             for (std::size_t i = 0; i < rr.values.size(); ++i)
-              entries.push_back({e->parameters()[i].table, e->parameters()[i].key, sci(rr.values[i]),
+              entries.push_back({e->parameters()[i].table, e->parameters()[i].key, format_number(rr.values[i]),
                                  "rectify diagnose: " + rr.effect + " (fitted)"});
             for (const auto &k : e->fixed_keys())
               entries.push_back({k.table, k.key, k.value, "rectify diagnose: " + rr.effect});
           }
-      char gain[64];
-      std::snprintf(gain, sizeof gain, "%.6g", result.final_parameters.transducer.piezomagnetic_coefficient_m_per_A);
-      entries.push_back({"transducer", "piezomagnetic_coefficient_m_per_A", gain,
+      entries.push_back({"transducer", "piezomagnetic_coefficient_m_per_A",
+                         format_number(result.final_parameters.transducer.piezomagnetic_coefficient_m_per_A),
                          "rectify diagnose: nuisance force gain fitted"});
       std::string text;
       {
@@ -207,8 +206,6 @@ namespace rectify::app
         text = ss.str();
       }
       const std::string case_name = "case-with-" + (effects_named.empty() ? std::string("none") : effects_named) + ".toml";
-      diagnosis::CaseEntry header{};
-      (void)header;
       const std::string edited =
         "# Written by rectify diagnose from " + std::filesystem::absolute(file.name()).string() +
         "\n# with the named effect(s) and the fitted force gain; see summary.json.\n" +

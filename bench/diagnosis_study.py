@@ -17,15 +17,15 @@ import argparse, csv, json, math, os, random, subprocess, sys, time
 
 STUDY = {
     # effect: (key, low, high, log, scenario, frequencies, extra synth args)
-    "entrained_air": ("free_air_fraction", 1.5e-3, 1e-2, True, "no-flow", [50, 100, 200], []),
+    "entrained_air": ("free_air_fraction", 5e-3, 1.5e-2, True, "no-flow", [50, 100, 200], []),
     "outlet_compliance": ("seal_compliance_m3_per_Pa", 1e-12, 1e-10, True, "no-flow", [50, 100, 200], []),
-    "valve_leakage": ("leak_resistance_Pa_s_per_m3", 2e10, 1e13, True, "no-flow", [50, 100, 200], []),
-    "orifice_flow": ("orifice_discharge_coefficient", 0.32, 0.55, False, "no-flow", [50, 100, 200], []),
-    "line_inertance": ("outlet_inertance_Pa_s2_per_m3", 1e7, 3e8, True, "no-flow", [50, 100, 200], []),
-    "coil_dynamics": ("coil_inductance_H", 3e-4, 5e-3, True, "no-flow", [50, 100, 200], []),
+    "valve_leakage": ("leak_resistance_Pa_s_per_m3", 2e10, 5e12, True, "no-flow", [50, 100, 200], []),
+    "orifice_flow": ("orifice_discharge_coefficient", 0.3, 0.42, False, "no-flow", [50, 100, 200], []),
+    "line_inertance": ("outlet_inertance_Pa_s2_per_m3", 2e7, 3e8, True, "no-flow", [50, 100, 200], []),
+    "coil_dynamics": ("coil_inductance_H", 5e-4, 5e-3, True, "no-flow", [50, 100, 200], []),
     "piston_friction": ("coulomb_friction_N", 4.0, 60.0, True, "loaded", [50, 100, 150],
                         ["--current-pp", "4", "--current-bias", "2"]),
-    "reed_second_mode": ("second_mode_frequency_Hz", 1600.0, 3000.0, True, "no-flow", [50, 100, 200], []),
+    "reed_second_mode": ("second_mode_frequency_Hz", 1500.0, 2000.0, True, "no-flow", [50, 100, 200], []),
 }
 NONE_FREQUENCIES = [50, 100, 200]
 COLUMNS = ["case", "truth", "named", "correct", "key", "true_value", "fitted_value", "rel_error",

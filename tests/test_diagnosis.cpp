@@ -105,3 +105,221 @@ TEST(MeasuredRun, BadDataNamesFileRowAndColumn)
     }
   EXPECT_THROW(MeasuredRun::read("/nonexistent/run.csv"), InputError);
 }
+
+// ------------------------------------------------------------ the workflow
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <random>
+
+#include "cli_helpers.h"
+#include "diagnosis/case_edit.h"
+#include "diagnosis/effect.h"
+#include "diagnosis/observation.h"
+#include "diagnosis/residuals.h"
+#include "system/model.h"
+
+using namespace rectify::test_support;
+
+TEST(Diagnosis, DriveLowPassKeepsTheHarmonicsAndRemovesNoise)
+{
+  // 200 samples a cycle, cutoff at the 10th harmonic: harmonics 1 and 3 pass
+  // within 0.2 %, white noise loses about sqrt(10/100) of its amplitude.
+  const double f = 100, dt = 1 / (200 * f);
+  std::vector<double> t, clean, noisy;
+  std::mt19937_64     rng(4);
+  std::normal_distribution<double> normal(0, 1);
+  for (int i = 0; i <= 200 * 12; ++i)
+    {
+      t.push_back(i * dt);
+      clean.push_back(5 - 4 * std::cos(2 * std::numbers::pi * f * t.back()) +
+                      std::cos(2 * std::numbers::pi * 3 * f * t.back()));
+      noisy.push_back(clean.back() + 0.1 * normal(rng));
+    }
+  const auto smooth = low_pass(t, clean, 10 * f);
+  double     worst  = 0;
+  for (std::size_t i = 0; i < t.size(); ++i)
+    worst = std::max(worst, std::abs(smooth[i] - clean[i]));
+  EXPECT_LT(worst, 0.002 * 5);
+  const auto filtered = low_pass(t, noisy, 10 * f);
+  double     left     = 0;
+  for (std::size_t i = 0; i < t.size(); ++i)
+    left += std::pow(filtered[i] - clean[i], 2) / static_cast<double>(t.size());
+  EXPECT_LT(std::sqrt(left), 0.1 / 2.5);
+  EXPECT_GT(std::sqrt(left), 0.1 / 5.0);
+  // not uniformly sampled: left alone
+  auto uneven = t;
+  uneven[5] += 0.3 * dt;
+  EXPECT_EQ(low_pass(uneven, noisy, 10 * f), noisy);
+}
+
+TEST(Diagnosis, EffectLibraryNamesBoundsAndKeys)
+{
+  const std::vector<std::string> expected{"entrained_air",  "outlet_compliance", "valve_leakage",
+                                          "orifice_flow",   "line_inertance",    "coil_dynamics",
+                                          "piston_friction", "reed_second_mode"};
+  ASSERT_EQ(effect_library().size(), expected.size());
+  const auto base = system::SystemParameters::from_case(CaseFile::load(reference_case_path()));
+  const auto map  = maps::ResistanceMap::read(base.valves.resistance_map,
+                                              maps::parse_interpolation(base.valves.interpolation));
+  for (std::size_t i = 0; i < expected.size(); ++i)
+    {
+      const auto &e = effect_library()[i];
+      EXPECT_EQ(e->name(), expected[i]);
+      EXPECT_FALSE(e->physics().empty());
+      EXPECT_FALSE(e->signature().empty());
+      ASSERT_EQ(e->parameters().size(), 1u);
+      const auto &spec = e->parameters()[0];
+      EXPECT_GT(spec.upper, spec.lower);
+      for (double u : {0.0, 0.3, 1.0})
+        EXPECT_NEAR(spec.to_unit(spec.from_unit(u)), u, 1e-12) << e->name();
+      // applying the effect sets its case key and switches its physics on
+      auto p = base;
+      e->apply(std::vector<double>{spec.mid()}, p);
+      const auto   text = p.to_json()[spec.table][spec.key];
+      EXPECT_DOUBLE_EQ(text.get<double>(), spec.mid()) << e->name();
+      system::Model m(p, map, system::ValveModel::dynamic, system::Scenario::loaded,
+                      e->name() == "coil_dynamics" ?
+                        system::Drive::from_samples({0, 1}, {1, 1}, 100, true, "v") :
+                        system::Drive::sine(100, 20, 10));
+      EXPECT_TRUE(m.needs_difference_jacobian()) << e->name();
+    }
+  EXPECT_EQ(find_effect("coil_dynamics")->not_testable({system::Scenario::no_flow, false}).empty(), false);
+  EXPECT_EQ(find_effect("coil_dynamics")->not_testable({system::Scenario::no_flow, true}), "");
+  EXPECT_NE(find_effect("piston_friction")->not_testable({system::Scenario::no_flow, true}), "");
+  try
+    {
+      find_effect("air");
+      ADD_FAILURE();
+    }
+  catch (const InputError &e)
+    {
+      EXPECT_NE(std::string(e.what()).find("entrained_air"), std::string::npos);
+    }
+}
+
+TEST(Diagnosis, NewCaseFileSetsTheEffectKeysAndResolvesPaths)
+{
+  const std::string text   = reference_text();
+  const auto        dir    = reference_case_path().parent_path();
+  const std::string edited = edit_case_text(
+    text, dir,
+    {{"valves", "leak_resistance_Pa_s_per_m3", "2.5e11", "test"},
+     {"valves", "interpolation", "\"log-linear\"", "test"},
+     {"drive", "coil_dynamics", "\"on\"", "test"}});
+  const auto out = scratch("case_edit");
+  {
+    std::ofstream f(out / "new.toml");
+    f << edited;
+  }
+  const CaseFile file = CaseFile::load(out / "new.toml");
+  const auto     p    = system::SystemParameters::from_case(file);
+  EXPECT_DOUBLE_EQ(p.valves.leak_resistance_Pa_s_per_m3, 2.5e11);
+  EXPECT_EQ(p.valves.interpolation, "log-linear");
+  EXPECT_EQ(p.drive.coil_dynamics, "on");
+  EXPECT_TRUE(std::filesystem::exists(p.valves.resistance_map)) << p.valves.resistance_map;
+  EXPECT_NE(edited.find("(was: \"monotone-cubic\""), std::string::npos);
+  // everything else as in the reference case
+  const auto ref = system::SystemParameters::from_case(CaseFile::load(reference_case_path()));
+  EXPECT_EQ(p.transducer.coil_turns, ref.transducer.coil_turns);
+  EXPECT_EQ(p.fluid.bias_pressure_Pa, ref.fluid.bias_pressure_Pa);
+}
+
+TEST(Diagnosis, LocalisationFindsTheCycleHalfAndTheHarmonic)
+{
+  // Data: a smooth outlet pressure; model = data + 0.3 MPa during the refill
+  // half, or + 0.2 MPa cos(3 w t): the report must say so.
+  const double f = 50;
+  std::string  text = "time_s,current_A,outlet_pressure_Pa\n";
+  for (int i = 0; i <= 200 * 10; ++i)
+    {
+      const double t = i / (200 * f);
+      text += std::to_string(t) + "," + std::to_string(10 - 10 * std::cos(2 * std::numbers::pi * f * t)) +
+              "," + std::to_string(3e6 + 1e6 * std::sin(2 * std::numbers::pi * f * t)) + "\n";
+    }
+  const auto run    = MeasuredRun::parse(text, "loc.csv");
+  const auto scales = signal_scales(run);
+  Signals    refill{{"outlet_pressure_Pa", run.signal("outlet_pressure_Pa")}};
+  Signals    third  = refill;
+  for (std::size_t i = 0; i < run.time_s.size(); ++i)
+    {
+      const double t     = run.time_s[i];
+      const double phase = t * f - std::floor(t * f);
+      refill["outlet_pressure_Pa"][i] += phase >= 0.5 ? 3e5 : 0.0;
+      third["outlet_pressure_Pa"][i] += 2e5 * std::cos(2 * std::numbers::pi * 3 * f * t);
+    }
+  const auto a = localise(run, refill, f, scales);
+  EXPECT_EQ(a.dominant_signal, "outlet_pressure_Pa");
+  EXPECT_EQ(a.dominant_half, "refill");
+  EXPECT_GT(a.numbers["outlet_pressure_Pa"]["refill_fraction"].get<double>(), 0.99);
+  EXPECT_NEAR(a.numbers["outlet_pressure_Pa"]["mean_model_minus_data"].get<double>(), 1.5e5, 0.02e5);
+  ASSERT_FALSE(a.sentences.empty());
+  EXPECT_NE(a.sentences[0].find("refill"), std::string::npos) << a.sentences[0];
+  EXPECT_NE(a.sentences[0].find("above the data by 0.15 MPa"), std::string::npos) << a.sentences[0];
+  const auto b = localise(run, third, f, scales);
+  EXPECT_EQ(b.numbers["outlet_pressure_Pa"]["dominant_harmonic"].get<int>(), 3);
+  EXPECT_NEAR(b.numbers["outlet_pressure_Pa"]["harmonic_amplitudes"][3].get<double>(), 2e5, 0.01 * 2e5);
+  EXPECT_NE(b.sentences[0].find("harmonic 3"), std::string::npos) << b.sentences[0];
+  // the norms: RMS of (model - data) / swing
+  const auto norms = residual_norms(run, third, scales);
+  EXPECT_NEAR(norms.at("outlet_pressure_Pa"), (2e5 / std::sqrt(2.0)) / scales.at("outlet_pressure_Pa"), 1e-3);
+}
+
+TEST(Diagnosis, SynthThenDiagnoseNamesAHiddenLeakAndFindsNothingInCleanData)
+{
+  const auto dir = scratch("diagnose_leak");
+  auto       r   = rectify_cli("synth --effect valve_leakage --param leak_resistance_Pa_s_per_m3=3e11 "
+                               "--noise 0.01 --seed 7 --frequency 100 --cycles 8 --out " + (dir / "leak").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = rectify_cli("synth --noise 0.015 --seed 8 --frequency 150 --cycles 8 --out " + (dir / "clean").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string candidates = " --effects valve_leakage outlet_compliance entrained_air ";
+  r = rectify_cli("diagnose --data " + (dir / "leak" / "data.csv").string() + candidates + "--out " +
+                  (dir / "d-leak").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto s = nlohmann::json::parse(std::ifstream(dir / "d-leak" / "summary.json"));
+  EXPECT_EQ(s["effect"], "valve_leakage") << s["decision"];
+  EXPECT_NEAR(s["parameters"]["leak_resistance_Pa_s_per_m3"].get<double>(), 3e11, 0.1 * 3e11);
+  EXPECT_GT(s["residual_shrink"].get<double>(), 0.8);
+  EXPECT_TRUE(s["new_case"]["matches_refit"].get<bool>()) << s["new_case"];
+  EXPECT_TRUE(std::filesystem::exists(dir / "d-leak" / "case-with-valve_leakage.toml"));
+  EXPECT_EQ(s["candidates"].size(), 4u); // none + the three asked for
+  EXPECT_NE(r.output.find("outlet pressure"), std::string::npos) << r.output; // the localisation
+
+  r = rectify_cli("diagnose --data " + (dir / "clean" / "data.csv").string() + candidates + "--out " +
+                  (dir / "d-clean").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto c = nlohmann::json::parse(std::ifstream(dir / "d-clean" / "summary.json"));
+  EXPECT_EQ(c["effect"], "none") << c["decision"];
+  EXPECT_NE(c["decision"].get<std::string>().find("no significant missing effect"), std::string::npos);
+}
+
+TEST(Diagnosis, BadDataAndBadOptionsStopBeforeWritingAnything)
+{
+  const auto dir = scratch("diagnose_bad");
+  {
+    std::ofstream f(dir / "unsorted.csv");
+    f << "time_s,current_A,outlet_pressure_Pa\n";
+    for (int i = 0; i < 400; ++i)
+      f << (i == 200 ? 0.0 : i * 1e-4) << "," << 10 + 10 * std::sin(2 * M_PI * 100 * i * 1e-4) << ",3e6\n";
+  }
+  auto r = rectify_cli("diagnose --data " + (dir / "unsorted.csv").string() + " --out " + (dir / "out").string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("unsorted.csv"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("time_s"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("201"), std::string::npos) << r.output; // the data row
+  EXPECT_FALSE(std::filesystem::exists(dir / "out"));
+  r = rectify_cli("diagnose --data " + (dir / "missing.csv").string() + " --out " + (dir / "out").string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("missing.csv"), std::string::npos) << r.output;
+  r = rectify_cli("synth --effect valve_leakage --param leak_resistance_Pa_s_per_m3=1e3 --out " + (dir / "s").string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("bounds"), std::string::npos) << r.output;
+  r = rectify_cli("synth --effect valve_leakage --param stiffness=1 --out " + (dir / "s").string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("not a parameter of valve_leakage"), std::string::npos) << r.output;
+  r = rectify_cli("synth --effect leak --out " + (dir / "s").string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("valve_leakage"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir / "s"));
+}

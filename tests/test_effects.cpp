@@ -1,0 +1,200 @@
+// The system model's optional physics (the diagnosis effects): each against
+// an exact relation - a conservation law, a closed-form response, the
+// algebra of its network - and off means the thesis model bit for bit.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "common/case_file.h"
+#include "system/model.h"
+#include "system/simulation.h"
+
+using namespace rectify;
+using namespace rectify::system;
+
+namespace
+{
+  SystemParameters reference() { return SystemParameters::from_case(CaseFile::load(reference_case_path())); }
+
+  maps::ResistanceMap reference_map(const SystemParameters &p)
+  {
+    return maps::ResistanceMap::read(p.valves.resistance_map,
+                                     maps::parse_interpolation(p.valves.interpolation));
+  }
+
+  Model make(const SystemParameters &p, Scenario s, double f, double pp = 20, double bias = 10)
+  {
+    return Model(p, reference_map(p), ValveModel::dynamic, s, Drive::sine(f, pp, bias));
+  }
+
+  RunOptions options(std::size_t cycles)
+  {
+    RunOptions o;
+    o.n_cycles           = cycles;
+    o.relative_tolerance = 1e-8;
+    return o;
+  }
+
+  /// Every effect on at once (a value where each matters).
+  SystemParameters all_effects()
+  {
+    auto p = reference();
+    p.fluid.free_air_fraction                    = 5e-3;
+    p.cylinder.seal_compliance_m3_per_Pa         = 5e-12;
+    p.valves.leak_resistance_Pa_s_per_m3         = 1e12;
+    p.valves.orifice_discharge_coefficient       = 0.6;
+    p.lines.outlet_inertance_Pa_s2_per_m3        = 3e7;
+    p.load.coulomb_friction_N                    = 20;
+    p.reed.second_mode_frequency_Hz              = 4000;
+    return p;
+  }
+} // namespace
+
+TEST(Effects, OffMeansTheThesisModelWithItsAnalyticJacobian)
+{
+  const auto p = reference();
+  Model      m = make(p, Scenario::no_flow, 100);
+  EXPECT_FALSE(m.needs_difference_jacobian());
+  EXPECT_EQ(m.n_states(), state::thesis_count);
+  Model e = make(all_effects(), Scenario::no_flow, 100);
+  EXPECT_TRUE(e.needs_difference_jacobian());
+  EXPECT_EQ(e.n_states(), state::count);
+}
+
+TEST(Effects, VolumeBalancesCloseWithEveryEffectOn)
+{
+  // The three balances of run() hold exactly for the equations, with the
+  // free air's stored volume the integral of its compliance, the leak and
+  // orifice inside the valve flows and the line flow a state.
+  const auto p = all_effects();
+  for (auto [scenario, f] : {std::pair{Scenario::no_flow, 100.0}, std::pair{Scenario::loaded, 200.0}})
+    {
+      Model           m = make(p, scenario, f);
+      const RunResult r = run(m, options(8));
+      EXPECT_LT(r.volume_balance_rel_error, 1e-6) << to_string(scenario);
+      EXPECT_GT(r.min_reed_opening_m, -1e-9);
+    }
+}
+
+TEST(Effects, FreeAirStoredVolumeIsTheIntegralOfItsCompliance)
+{
+  FluidParameters fl;
+  fl.free_air_fraction = 0.01;
+  EXPECT_EQ(fl.free_air_volume_change_per_volume(0.0), 0.0);
+  // at the bias: alpha / (gamma p_b), eq. 3.25's gas bulk modulus
+  EXPECT_NEAR(fl.free_air_compliance_per_volume(0.0),
+              0.01 / (fl.gas_heat_capacity_ratio * fl.bias_pressure_Pa), 1e-20);
+  for (double p : {-2e6, -5e5, 1e6, 8e6})
+    {
+      const double h  = 1e-5 * std::abs(p);
+      const double dv = (fl.free_air_volume_change_per_volume(p + h) -
+                         fl.free_air_volume_change_per_volume(p - h)) / (2 * h);
+      EXPECT_NEAR(dv, fl.free_air_compliance_per_volume(p), 1e-6 * fl.free_air_compliance_per_volume(p)) << p;
+    }
+}
+
+TEST(Effects, LeakAndOrificeFlowsSatisfyTheirBranchLawsAndKirchhoff)
+{
+  auto p = reference();
+  p.valves.leak_resistance_Pa_s_per_m3   = 3e11;
+  p.valves.orifice_discharge_coefficient = 0.5;
+  Model m = make(p, Scenario::no_flow, 100);
+  m.set_closed(0, false);
+  m.set_closed(1, false);
+  std::vector<double> y(m.n_states(), 0.0);
+  y[state::outlet_reed_x] = 40e-6;
+  y[state::inlet_reed_x]  = 25e-6;
+  y[state::chamber_p]     = 1.5e6;
+  y[state::high_p]        = 0.4e6;
+  y[state::accumulator_p] = 0.1e6;
+  y[state::low_p]         = -0.2e6;
+  const Flows  f   = m.flows(y);
+  const auto  &c   = m.constants();
+  const auto   map = reference_map(p);
+  const double R_leak = p.valves.leak_resistance_Pa_s_per_m3;
+  const auto   par    = [&](double R) { return R * R_leak / (R + R_leak); };
+  const double P      = std::sqrt(4 * std::numbers::pi * p.reed.pressure_area_m2);
+  const auto   K      = [&](double x) {
+    const double A = P * x;
+    return p.fluid.density_kg_per_m3 / (2 * 0.25 * A * A);
+  };
+  // outlet branch: chamber -> high side through valve (with leak) and line
+  const double R1 = par(map.evaluate(40e-6).resistance);
+  const double q  = f.q_outlet;
+  EXPECT_NEAR((R1 + c.R3) * q + K(40e-6) * q * std::abs(q), 1.5e6 - 0.4e6, 1e-9 * 1.1e6);
+  EXPECT_NEAR(f.p_outlet, 1.5e6 - R1 * q - K(40e-6) * q * std::abs(q), 1e-6);
+  // inlet branch and the junction's Kirchhoff law
+  const double R2 = par(map.evaluate(25e-6).resistance);
+  const double qi = f.q_inlet;
+  EXPECT_NEAR((R2 + c.R4) * qi + K(25e-6) * qi * std::abs(qi), f.p_junction - 1.5e6, 1e-9 * 1.5e6);
+  EXPECT_NEAR(f.q_inlet + f.q_accumulator + f.q_low, 0.0, 1e-12 * std::abs(f.q_inlet));
+  EXPECT_LT(qi, 0.0); // the chamber is above the junction: flow back through the open inlet
+}
+
+TEST(Effects, VoltageDrivenCoilFollowsItsFirstOrderStepResponse)
+{
+  // L dI/dt = V - R I under a constant voltage from I(0) = V0/R:
+  // I(t) = V/R + (V0 - V)/R exp(-t R/L).
+  auto p                         = reference();
+  p.drive.coil_dynamics          = "on";
+  p.transducer.coil_inductance_H = 2e-3;
+  const double R = p.transducer.coil_resistance_ohm, L = 2e-3;
+  const double V0 = 0.0, V = 19.0;
+  std::vector<double> t{0.0, 1e-9, 1.0}, v{V0, V, V};
+  Model m(p, reference_map(p), ValveModel::dynamic, Scenario::no_flow,
+          Drive::from_samples(t, v, 100, true, "step"));
+  RunOptions o = options(1);
+  Integrator integrator(m, 0.0, m.initial_state(), integrator_options(m, o));
+  for (double time : {2e-4, 1e-3, 3e-3})
+    {
+      integrator.advance_to(time);
+      const double exact = V / R + (V0 - V) / R * std::exp(-(time - 1e-9) * R / L);
+      EXPECT_NEAR(integrator.state()[state::coil_current], exact, 1e-5 * V / R) << time;
+      EXPECT_NEAR(m.current_A(time, integrator.state()), integrator.state()[state::coil_current], 0.0);
+    }
+  // without coil dynamics the current is V/R at once
+  p.drive.coil_dynamics = "off";
+  Model q(p, reference_map(p), ValveModel::dynamic, Scenario::no_flow, Drive::from_samples(t, v, 100, true, "step"));
+  EXPECT_DOUBLE_EQ(q.current_A(1e-3, q.initial_state()), V / R);
+}
+
+TEST(Effects, SealComplianceAddsToTheHighSide)
+{
+  // No flow, valve open only at the start: the high side's pressure rise
+  // for a pumped volume is dV / (C_h + C_seal) (volume balance e_out).
+  auto p = reference();
+  Model base = make(p, Scenario::no_flow, 100);
+  p.cylinder.seal_compliance_m3_per_Pa = 2e-12;
+  Model soft = make(p, Scenario::no_flow, 100);
+  const auto C_h = base.constants().C_h;
+  EXPECT_NEAR(soft.stored_volume(1, 1e6), (C_h + 2e-12) * 1e6, 1e-20);
+  const RunResult r0 = run(base, options(10)), r1 = run(soft, options(10));
+  EXPECT_LT(r1.stored_pressure_Pa, r0.stored_pressure_Pa); // same pump, softer outlet: slower build-up
+  EXPECT_LT(r1.volume_balance_rel_error, 1e-6);
+}
+
+TEST(Effects, FrictionSlowsTheLoadedActuatorAndSecondModeAddsTipCompliance)
+{
+  auto p = reference();
+  Model smooth = make(p, Scenario::loaded, 100, 4, 2);
+  p.load.coulomb_friction_N = 20;
+  Model rough = make(p, Scenario::loaded, 100, 4, 2);
+  const RunResult a = run(smooth, options(10)), b = run(rough, options(10));
+  EXPECT_LT(b.mean_velocity_m_per_s, a.mean_velocity_m_per_s);
+  // Under a constant opening force F the reed settles at F/k1 + F/k2 (two
+  // modes in series, modal masses normalised to the tip).
+  auto q = reference();
+  q.reed.second_mode_frequency_Hz = 3000;
+  Model       m = make(q, Scenario::no_flow, 100);
+  const auto &c = m.constants();
+  EXPECT_NEAR(c.k_r2, c.reed.mass * std::pow(2 * std::numbers::pi * 3000, 2), 1e-9 * c.k_r2);
+  std::vector<double> y(m.n_states(), 0.0), ydot(m.n_states());
+  m.set_closed(0, false);
+  y[state::outlet_reed_x]  = 1e-5;
+  y[state::outlet_reed2_x] = 2e-6;
+  EXPECT_DOUBLE_EQ(m.opening(0, y), 1.2e-5);
+  m.rhs(0.0, y, ydot);
+  const Flows f = m.flows(y);
+  EXPECT_NEAR(ydot[state::outlet_reed2_v], (f.outlet_force - c.k_r2 * 2e-6) / c.reed.mass, 1e-9 * std::abs(c.k_r2 * 2e-6 / c.reed.mass));
+}
