@@ -221,7 +221,7 @@ namespace rectify::app
           diagnosis::SimulationOptions so;
           so.relative_tolerance = o.options.relative_tolerance;
           const auto model = diagnosis::simulate_run(new_p, map, runs[r].run, runs[r].setup, so);
-          const auto norms = diagnosis::residual_norms(runs[r].run, model, runs[r].scales);
+          const auto norms = diagnosis::residual_norms(runs[r].run, model, result.runs[r].scales);
           check_sq += norms.at("overall") * norms.at("overall");
           ++check_n;
         }
@@ -355,9 +355,12 @@ namespace rectify::app
                       " | " + sci(c.rms_train) + " | " + sci(c.rms_heldout) + " | " + params + " |\n";
               }
           }
-        md += "\n## Gap before and after (normalised RMS residual)\n\n| signal | before | after |\n|---|---|---|\n";
+        md += "\n## Gap before and after\n\nRMS residual in units of each signal's noise (about 1: explained to within the noise), "
+              "and as a fraction of the signal's swing (RMS about its mean).\n\n"
+              "| signal | before [noise] | after [noise] | before [swing] | after [swing] |\n|---|---|---|---|---|\n";
         for (const auto &[name, v] : result.residual_before)
-          md += "| " + name + " | " + sci(v) + " | " + sci(result.residual_after.at(name)) + " |\n";
+          md += "| " + name + " | " + sci(v) + " | " + sci(result.residual_after.at(name)) + " | " +
+                sci(result.swing_before.at(name)) + " | " + sci(result.swing_after.at(name)) + " |\n";
         md += "\nNew case file: `" + case_name + "`. Overlays: `overlay-N.png`.\n";
         write_file_atomic(out / "report.md", md);
       }
@@ -370,7 +373,7 @@ namespace rectify::app
       for (const auto &rc : result.localisation)
         for (const auto &s : rc.sentences)
           std::printf("  before: %s\n", s.c_str());
-      std::printf("residual (normalised RMS, all signals): %.4g before, %.4g after (%.1f %% smaller)\n",
+      std::printf("residual (RMS in units of each signal's noise, all signals): %.4g before, %.4g after (%.1f %% smaller)\n",
                   result.residual_before.at("overall"), result.residual_after.at("overall"),
                   100 * (1 - result.residual_after.at("overall") / result.residual_before.at("overall")));
       std::printf("wrote %s, %s\n", (out / "summary.json").c_str(), (out / case_name).c_str());

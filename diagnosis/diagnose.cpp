@@ -218,12 +218,13 @@ namespace rectify::diagnosis
     }
 
     std::map<std::string, double> pooled_norms(const std::vector<RunCase> &runs,
-                                               const std::vector<Signals> &model)
+                                               const std::vector<Signals> &model, bool swings)
     {
       std::map<std::string, double> sum;
       std::map<std::string, int>    count;
       for (std::size_t r = 0; r < runs.size(); ++r)
-        for (const auto &[name, v] : residual_norms(runs[r].run, model[r], runs[r].scales))
+        for (const auto &[name, v] :
+             residual_norms(runs[r].run, model[r], swings ? runs[r].swings : runs[r].scales))
           {
             sum[name] += v * v;
             ++count[name];
@@ -240,19 +241,44 @@ namespace rectify::diagnosis
     RunCase rc;
     rc.setup.scenario     = scenario;
     rc.setup.frequency_Hz = frequency_Hz > 0 ? frequency_Hz : run.drive_frequency_Hz();
-    rc.scales             = signal_scales(run);
+    rc.swings             = signal_scales(run);
+    rc.scales             = rc.swings;
+    rc.drive_noise_sd     = white_noise_sd(run.signal(run.drive_column()));
     rc.n_train = std::max<std::size_t>(
       10, static_cast<std::size_t>(std::floor(training_fraction * static_cast<double>(run.time_s.size()))));
     rc.run = std::move(run);
     return rc;
   }
 
+  void calibrate_noise(const system::SystemParameters &base, const maps::ResistanceMap &map,
+                       std::vector<RunCase> &runs, double rtol)
+  {
+    for (auto &rc : runs)
+      {
+        SimulationOptions so;
+        so.relative_tolerance = rtol;
+        const auto clean      = simulate_run(base, map, rc.run, rc.setup, so);
+        so.drive_noise_sd     = rc.drive_noise_sd;
+        so.seed               = 12345;
+        const auto shaken     = so.drive_noise_sd > 0 ? simulate_run(base, map, rc.run, rc.setup, so) : clean;
+        for (const auto &[name, values] : clean)
+          {
+            double d2 = 0;
+            for (std::size_t i = 0; i < values.size(); ++i)
+              d2 += std::pow(shaken.at(name)[i] - values[i], 2) / static_cast<double>(values.size());
+            const double measured = white_noise_sd(rc.run.signal(name));
+            rc.scales[name] = std::max(std::sqrt(measured * measured + d2), 1e-3 * rc.swings.at(name));
+          }
+      }
+  }
+
   DiagnosisResult diagnose(const system::SystemParameters &base_in, const maps::ResistanceMap &map,
-                           const std::vector<RunCase> &runs, const DiagnoseOptions &options)
+                           std::vector<RunCase> runs, const DiagnoseOptions &options)
   {
     const auto start = Clock::now();
     if (runs.empty())
       throw InputError("diagnose: no measured runs given");
+    calibrate_noise(base_in, map, runs, options.relative_tolerance);
     DiagnosisResult result;
     RunTraits       traits;
     traits.scenario      = runs.front().setup.scenario;
@@ -274,7 +300,7 @@ namespace rectify::diagnosis
     result.before = simulate_all(base, map, runs, options.relative_tolerance);
     for (std::size_t r = 0; r < runs.size(); ++r)
       result.localisation.push_back(localise(runs[r].run, result.before[r],
-                                             runs[r].setup.frequency_Hz, runs[r].scales));
+                                             runs[r].setup.frequency_Hz, runs[r].swings));
     {
       std::vector<double> f, a, res;
       for (std::size_t r = 0; r < runs.size(); ++r)
@@ -282,7 +308,7 @@ namespace rectify::diagnosis
           f.push_back(runs[r].setup.frequency_Hz);
           const auto &d = runs[r].run.signal(runs[r].run.drive_column());
           a.push_back(*std::max_element(d.begin(), d.end()) - *std::min_element(d.begin(), d.end()));
-          res.push_back(residual_norms(runs[r].run, result.before[r], runs[r].scales).at("overall"));
+          res.push_back(residual_norms(runs[r].run, result.before[r], runs[r].swings).at("overall"));
         }
       result.trend_sentences = trends(f, a, res);
     }
@@ -461,8 +487,11 @@ namespace rectify::diagnosis
       }
     result.final_parameters = base;
     result.after            = current;
-    result.residual_before  = pooled_norms(runs, result.before);
-    result.residual_after   = pooled_norms(runs, result.after);
+    result.residual_before  = pooled_norms(runs, result.before, false);
+    result.residual_after   = pooled_norms(runs, result.after, false);
+    result.swing_before     = pooled_norms(runs, result.before, true);
+    result.swing_after      = pooled_norms(runs, result.after, true);
+    result.runs             = runs;
     result.wall_time_s      = seconds_since(start);
     return result;
   }
@@ -537,14 +566,18 @@ namespace rectify::diagnosis
             {"residual_before", r.residual_before},
             {"residual_after", r.residual_after},
             {"residual_shrink", shrink},
+            {"residual_before_fraction_of_swing", r.swing_before},
+            {"residual_after_fraction_of_swing", r.swing_after},
             {"candidates", rounds.front()["candidates"]},
             {"rounds", rounds},
             {"localisation", localisation},
             {"trends", r.trend_sentences},
             {"wall_time_s", r.wall_time_s},
             {"definitions",
-             {{"residual", "RMS of (model - data) / (the measured signal's RMS about its mean), per signal "
-                           "over every run; overall: RMS over the signals"},
+             {{"residual", "RMS of (model - data) / (the signal's expected noise: its white noise and the "
+                           "model's response to the drive's noise), per signal over every run; overall: RMS "
+                           "over the signals. About 1 when the model explains the data to within its noise"},
+              {"residual_before_fraction_of_swing", "the same residual over the measured signal's RMS about its mean"},
               {"bic", "n ln(SSR/n) + k ln n on the training samples (first part of each run)"},
               {"aic", "n ln(SSR/n) + 2k"},
               {"rms_heldout", "normalised RMS residual on the last part of each run, unseen by the fit"},

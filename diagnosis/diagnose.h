@@ -12,6 +12,15 @@
 // piezomagnetic coefficient times [0.9, 1.1]), the least certain constant
 // between the measured drive and the model.
 //
+// Residual scale: each signal's expected noise, sd^2 = (white noise on the
+// measured signal, from its second differences)^2 + (the model's response to
+// the drive's own measurement noise)^2, the latter by simulating the model
+// once more with that much extra noise on the drive. The drive's noise
+// matters: the outlet valve opens by a small difference of two large
+// pressures in a no-flow run, so 0.3 % on the drive moves its opening by a
+// tenth of its swing. Residuals in these units are about 1 for a model that
+// explains the data to within its noise.
+//
 // Scores: BIC = n ln(SSR/n) + k ln n and AIC = n ln(SSR/n) + 2k on the
 // training samples (k counts the nuisance too); held-out RMS over the last
 // part of every run, which the fit never saw. An effect is named when its BIC
@@ -58,7 +67,9 @@ namespace rectify::diagnosis
   {
     MeasuredRun                   run;
     RunSetup                      setup;
-    std::map<std::string, double> scales;
+    std::map<std::string, double> scales; ///< residual scale per signal (noise, see above)
+    std::map<std::string, double> swings; ///< RMS about the mean per signal (for words)
+    double                        drive_noise_sd = 0; ///< estimated from the drive
     std::size_t                   n_train = 0; ///< samples the fit sees
   };
 
@@ -96,7 +107,9 @@ namespace rectify::diagnosis
     std::vector<RoundResult> rounds;
     system::SystemParameters final_parameters;   ///< base + named effects + gain
     std::vector<Signals>     before, after;      ///< per run, whole records
-    std::map<std::string, double> residual_before, residual_after; ///< per signal + overall
+    std::map<std::string, double> residual_before, residual_after; ///< per signal + overall, noise units
+    std::map<std::string, double> swing_before, swing_after; ///< the same as fractions of each swing
+    std::vector<RunCase>      runs;                ///< the runs with their calibrated scales
     std::vector<Localisation> localisation;       ///< per run, before
     std::vector<std::string>  trend_sentences;
     double                    wall_time_s = 0;
@@ -106,8 +119,13 @@ namespace rectify::diagnosis
   RunCase make_run_case(MeasuredRun run, system::Scenario scenario, double frequency_Hz,
                         double training_fraction);
 
+  /// Sets each run's residual scales (noise) with the base model.
+  void calibrate_noise(const system::SystemParameters &base, const maps::ResistanceMap &map,
+                       std::vector<RunCase> &runs, double relative_tolerance);
+
+  /// Calibrates the runs' noise (calibrate_noise) and runs the workflow.
   DiagnosisResult diagnose(const system::SystemParameters &base, const maps::ResistanceMap &map,
-                           const std::vector<RunCase> &runs, const DiagnoseOptions &options);
+                           std::vector<RunCase> runs, const DiagnoseOptions &options);
 
   /// summary.json's content.
   nlohmann::json to_json(const DiagnosisResult &result, const std::vector<RunCase> &runs);

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <random>
 
 #include "common/case_file.h"
 #include "system/simulation.h"
@@ -62,13 +63,22 @@ namespace rectify::diagnosis
     return out;
   }
 
-  system::Drive measured_drive(const MeasuredRun &run, double frequency_Hz)
+  system::Drive measured_drive(const MeasuredRun &run, double frequency_Hz,
+                               double extra_noise_sd, unsigned long seed)
   {
     std::vector<double> t(run.time_s.size());
     for (std::size_t i = 0; i < t.size(); ++i)
       t[i] = run.time_s[i] - run.time_s.front();
     const std::string &column = run.drive_column();
-    auto values = low_pass(t, run.signal(column), drive_cutoff_harmonic * frequency_Hz);
+    auto raw = run.signal(column);
+    if (extra_noise_sd > 0)
+      {
+        std::mt19937_64                  rng(seed);
+        std::normal_distribution<double> normal(0.0, extra_noise_sd);
+        for (double &x : raw)
+          x += normal(rng);
+      }
+    auto values = low_pass(t, raw, drive_cutoff_harmonic * frequency_Hz);
     return system::Drive::from_samples(std::move(t), std::move(values), frequency_Hz,
                                        column == "voltage_V", run.source);
   }
@@ -123,7 +133,8 @@ namespace rectify::diagnosis
     std::vector<double> times(n);
     for (std::size_t i = 0; i < n; ++i)
       times[i] = run.time_s[i] - run.time_s.front();
-    Signals all = simulate_drive(p, map, measured_drive(run, setup.frequency_Hz), setup.scenario,
+    Signals all = simulate_drive(p, map, measured_drive(run, setup.frequency_Hz, options.drive_noise_sd, options.seed),
+                                 setup.scenario,
                                  times, options.relative_tolerance);
     Signals out;
     for (auto &[name, values] : all)

@@ -32,6 +32,8 @@ namespace rectify::diagnosis
   {
     double      relative_tolerance = 1e-6;
     std::size_t n_samples          = 0; ///< simulate only the first n samples (0: all)
+    double      drive_noise_sd     = 0; ///< add white noise of this sd to the drive (before its filter)
+    unsigned long seed             = 1; ///< of that noise
   };
 
   using Signals = std::map<std::string, std::vector<double>>;
@@ -51,7 +53,8 @@ namespace rectify::diagnosis
 
   /// The drive of `run` for the model (its time origin moved to 0, low-passed
   /// at drive_cutoff_harmonic x the pumping frequency).
-  system::Drive measured_drive(const MeasuredRun &run, double frequency_Hz);
+  system::Drive measured_drive(const MeasuredRun &run, double frequency_Hz,
+                               double extra_noise_sd = 0, unsigned long seed = 1);
 
   /// Simulates `run` with parameters `p` and returns every signal of
   /// signal_columns() that the run has, at its sample times. Throws

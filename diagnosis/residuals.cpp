@@ -77,6 +77,23 @@ namespace rectify::diagnosis
     return s;
   }
 
+  double white_noise_sd(const std::vector<double> &v)
+  {
+    if (v.size() < 5)
+      return 0.0;
+    std::vector<double> d(v.size() - 2);
+    for (std::size_t i = 1; i + 1 < v.size(); ++i)
+      d[i - 1] = v[i + 1] - 2 * v[i] + v[i - 1];
+    const auto median = [](std::vector<double> x) {
+      std::nth_element(x.begin(), x.begin() + static_cast<long>(x.size() / 2), x.end());
+      return x[x.size() / 2];
+    };
+    const double m = median(d);
+    for (double &x : d)
+      x = std::abs(x - m);
+    return 1.4826 * median(d) / std::sqrt(6.0);
+  }
+
   SquaredResidual squared_residual(const MeasuredRun &run, const Signals &model,
                                    const std::map<std::string, double> &scales, std::size_t from,
                                    std::size_t to)

@@ -3,8 +3,9 @@
 // (pressurising stroke or refill), which harmonics of the pumping frequency,
 // which trend over the record and over the runs' frequencies and amplitudes.
 //
-// Residuals are normalised per signal by the measured signal's RMS about its
-// mean (its "swing"), so that pressures, openings and strains add up.
+// Residuals are normalised per signal by a scale: in the fits and scores the
+// signal's expected noise (diagnose.h), in the words its swing (RMS about its
+// mean), so that pressures, openings and strains add up.
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -16,8 +17,13 @@
 
 namespace rectify::diagnosis
 {
-  /// Normalisation of each measured signal: its RMS about its mean.
+  /// Each measured signal's swing: its RMS about its mean.
   std::map<std::string, double> signal_scales(const MeasuredRun &run);
+
+  /// Standard deviation of the white (sample-to-sample) noise on a densely
+  /// sampled signal, from its second differences d (var d = 6 sd^2 for white
+  /// noise), robustly: 1.4826 median|d - median d| / sqrt(6).
+  double white_noise_sd(const std::vector<double> &values);
 
   /// Sum of squared normalised residuals over samples [from, to) of every
   /// signal in `model`, and the number of terms.
