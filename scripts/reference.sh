@@ -8,6 +8,7 @@
 #   stiffness                      the reed's stiffness, shape and modes (sec. 3.1.3)
 #   mesh-100um                     the valve's fluid mesh at 100 um tip opening (VTU, msh, quality)
 #   flow-100um                     Stokes flow at 100 um: R, force on the reed, thin-gap theory, VTU
+#   diagnosis                      a synthetic run with a hidden valve leak, and `diagnose` naming it
 #   (the whole R(x) map: mpirun --allow-run-as-root -np 2 build/bin/rectify map-resistance --out runs/R-map, ~11 min)
 # Interrupted? Run it again: finished sweep points are kept and not redone.
 set -euo pipefail
@@ -26,4 +27,7 @@ $rectify simulate --scenario loaded --frequency 1420 --cycles 300 --out $out/loa
 $rectify stiffness --out $out/stiffness
 $rectify mesh --opening 100um --out $out/mesh-100um
 $rectify stokes --opening 100um --out $out/flow-100um
+$rectify synth --effect valve_leakage --noise 0.01 --seed 1 --frequency 100 --cycles 20 \
+  --out $out/diagnosis/data-leak
+$rectify diagnose --data $out/diagnosis/data-leak/data.csv --out $out/diagnosis/result
 echo "reference case done: see $out/*/*/summary.json and the PNG plots beside them"

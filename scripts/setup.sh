@@ -15,6 +15,7 @@ packages=(
   libtet1.5-dev          # TetGen as a library: the pocket's tetrahedra
   libcgal-dev            # CGAL: planar meshing, surface checks (mesher)
   openmpi-bin            # mpirun: the flow solver in parallel
+  libnlopt-dev           # NLopt: the diagnosis workflow's bounded fits (BOBYQA)
   libgtest-dev           # tests
   gnuplot-nox            # plots (PNG and SVG)
   libopenblas0-pthread   # fast BLAS for the sparse direct solves of the FE stages

@@ -27,7 +27,7 @@ namespace rectify::diagnosis
       "resistor (I = V/R) between the measured voltage and the rod's force",
       "everything the drive moves lags and shrinks by the same first-order factor, more at "
       "higher frequency (corner R / (2 pi L))",
-      std::vector<EffectParameter>{{"transducer", "coil_inductance_H", 1e-4, 1e-2, true,
+      std::vector<EffectParameter>{{"transducer", "coil_inductance_H", 1e-5, 1e-2, true,
                                     "coil inductance"}},
       [](std::span<const double> v, system::SystemParameters &p) {
         p.transducer.coil_inductance_H = v[0];

@@ -11,7 +11,7 @@ namespace rectify::diagnosis
       "fluid inertance of the outlet line, L dq/dt in series with the line's resistance",
       "the outlet flow lags the chamber: the outlet valve's pressure drop overshoots at each "
       "opening and the outlet pressure rings; grows with frequency",
-      std::vector<EffectParameter>{{"lines", "outlet_inertance_Pa_s2_per_m3", 1e6, 1e9, true,
+      std::vector<EffectParameter>{{"lines", "outlet_inertance_Pa_s2_per_m3", 1e5, 1e9, true,
                                     "inertance of the outlet line (rho l / A)"}},
       [](std::span<const double> v, system::SystemParameters &p) {
         p.lines.outlet_inertance_Pa_s2_per_m3 = v[0];

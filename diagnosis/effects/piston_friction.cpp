@@ -26,7 +26,7 @@ namespace rectify::diagnosis
       "[load] friction_velocity_scale_m_per_s",
       "the loaded actuator moves slower by a constant force's worth, F_c / A_po of pressure "
       "difference; the outlet pressure sits higher",
-      std::vector<EffectParameter>{{"load", "coulomb_friction_N", 1.0, 100.0, true,
+      std::vector<EffectParameter>{{"load", "coulomb_friction_N", 0.1, 100.0, true,
                                     "Coulomb friction force on the output piston"}},
       [](std::span<const double> v, system::SystemParameters &p) {
         p.load.coulomb_friction_N = v[0];

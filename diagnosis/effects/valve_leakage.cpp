@@ -12,7 +12,7 @@ namespace rectify::diagnosis
       "valve, open or shut",
       "outlet pressure recoils (falls back toward the chamber pressure) after each peak while "
       "the outlet valve is shut; the stored pressure levels off lower; worst at low frequency",
-      std::vector<EffectParameter>{{"valves", "leak_resistance_Pa_s_per_m3", 1e10, 1e14, true,
+      std::vector<EffectParameter>{{"valves", "leak_resistance_Pa_s_per_m3", 1e10, 1e16, true,
                                     "resistance of the leak path past each valve"}},
       [](std::span<const double> v, system::SystemParameters &p) {
         p.valves.leak_resistance_Pa_s_per_m3 = v[0];
