@@ -7,6 +7,7 @@
 #include <numbers>
 
 #include "common/case_file.h"
+#include "model_helpers.h"
 #include "system/model.h"
 #include "system/simulation.h"
 
@@ -15,13 +16,8 @@ using namespace rectify::system;
 
 namespace
 {
-  SystemParameters reference() { return SystemParameters::from_case(CaseFile::load(reference_case_path())); }
-
-  maps::ResistanceMap reference_map(const SystemParameters &p)
-  {
-    return maps::ResistanceMap::read(p.valves.resistance_map,
-                                     maps::parse_interpolation(p.valves.interpolation));
-  }
+  using test_support::reference;
+  using test_support::reference_map;
 
   Model make(const SystemParameters &p, Scenario s, double f, double pp = 20, double bias = 10)
   {

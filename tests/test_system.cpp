@@ -17,6 +17,7 @@
 #include "common/io.h"
 #include "tests/cli_helpers.h"
 #include "system/integrator.h"
+#include "model_helpers.h"
 #include "system/model.h"
 #include "system/reed.h"
 #include "system/simulation.h"
@@ -27,13 +28,8 @@ using namespace rectify::test_support;
 
 namespace
 {
-  SystemParameters reference() { return SystemParameters::from_case(CaseFile::load(reference_case_path())); }
-
-  maps::ResistanceMap reference_map(const SystemParameters &p)
-  {
-    return maps::ResistanceMap::read(p.valves.resistance_map,
-                                     maps::parse_interpolation(p.valves.interpolation));
-  }
+  using test_support::reference;
+  using test_support::reference_map;
 
   Model make_model(const SystemParameters &p, ValveModel v, Scenario s, double f,
                    double pp = -1, double bias = -1)
