@@ -150,46 +150,58 @@ namespace rectify::diagnosis
       const unsigned dim = static_cast<unsigned>(ev.dimension());
       // coarse grid over the effect's first parameter, gain at 1
       std::vector<double> u(dim, 0.5);
+      std::vector<std::pair<double, std::vector<double>>> grid;
       if (ev.effect)
         for (int g = 0; g < ev.options.grid_points; ++g)
           {
             u[0] = (g + 0.5) / ev.options.grid_points;
-            objective(dim, u.data(), nullptr, &o);
+            grid.emplace_back(objective(dim, u.data(), nullptr, &o), u);
           }
       else
-        objective(dim, u.data(), nullptr, &o);
-      if (o.best_u.empty())
-        o.best_u = u;
-      // BOBYQA from the best grid point; restarted (smaller first step) from
-      // the best point while a restart still gains 1 %: the objective is
-      // slightly rough at the integrator's tolerance, which can stop a
-      // trust region early in a curved valley (effect vs force gain).
+        grid.emplace_back(objective(dim, u.data(), nullptr, &o), u);
+      std::sort(grid.begin(), grid.end(), [](const auto &a, const auto &b) { return a.first < b.first; });
+      // BOBYQA from the best grid points (the residual of a valve that opens
+      // by a small pressure difference can have several basins); each
+      // restarted (smaller first step) from its best point while a restart
+      // still gains 1 %: the objective is slightly rough at the integrator's
+      // tolerance, which can stop a trust region early in a curved valley
+      // (effect vs force gain).
       nlopt_result status = NLOPT_SUCCESS;
-      double       initial_step = 0.5 / ev.options.grid_points;
-      for (int attempt = 0; attempt < 3 && o.evaluations < 3 * ev.options.max_evaluations; ++attempt)
+      const std::size_t starts = std::min<std::size_t>(grid.size(), ev.effect ? 2 : 1);
+      for (std::size_t start_i = 0; start_i < starts; ++start_i)
         {
-          const double before = o.best;
-          std::vector<double> x = o.best_u;
-          nlopt_opt opt = nlopt_create(dim >= 2 ? NLOPT_LN_BOBYQA : NLOPT_LN_COBYLA, dim);
-          std::vector<double> lo(dim, 0.0), hi(dim, 1.0), step(dim, initial_step);
-          step.back() = std::min(0.1, initial_step);
-          nlopt_set_lower_bounds(opt, lo.data());
-          nlopt_set_upper_bounds(opt, hi.data());
-          nlopt_set_initial_step(opt, step.data());
-          nlopt_set_min_objective(opt, objective, &o);
-          nlopt_set_xtol_abs1(opt, 2e-4);
-          nlopt_set_ftol_rel(opt, 1e-7);
-          nlopt_set_maxeval(opt, ev.options.max_evaluations);
-          double f = 0;
-          status   = nlopt_optimize(opt, x.data(), &f);
-          nlopt_destroy(opt);
-          initial_step = 0.05;
-          if (attempt > 0 && !(o.best < 0.99 * before))
-            break;
+          std::vector<double> from   = grid[start_i].second;
+          double              best_f = grid[start_i].first;
+          double initial_step = 0.5 / ev.options.grid_points;
+          for (int attempt = 0; attempt < 3; ++attempt)
+            {
+              std::vector<double> x = from;
+              nlopt_opt opt = nlopt_create(dim >= 2 ? NLOPT_LN_BOBYQA : NLOPT_LN_COBYLA, dim);
+              std::vector<double> lo(dim, 0.0), hi(dim, 1.0), step(dim, initial_step);
+              step.back() = std::min(0.1, initial_step);
+              nlopt_set_lower_bounds(opt, lo.data());
+              nlopt_set_upper_bounds(opt, hi.data());
+              nlopt_set_initial_step(opt, step.data());
+              nlopt_set_min_objective(opt, objective, &o);
+              nlopt_set_xtol_abs1(opt, 2e-4);
+              nlopt_set_ftol_rel(opt, 1e-7);
+              nlopt_set_maxeval(opt, ev.options.max_evaluations);
+              double f = 0;
+              status   = nlopt_optimize(opt, x.data(), &f);
+              nlopt_destroy(opt);
+              initial_step = 0.05;
+              const bool gained = f < 0.99 * best_f;
+              if (f < best_f)
+                {
+                  best_f = f;
+                  from   = x;
+                }
+              if (!gained)
+                break;
+            }
         }
       c.message = "NLopt status " + std::to_string(static_cast<int>(status));
-      std::vector<double> x;
-      x         = o.best_u; // the best point seen (grid or optimiser)
+      const std::vector<double> x = o.best_u; // the best point seen (grid or optimisers)
 
       c.values      = ev.values(x);
       c.force_gain  = ev.gain(x);

@@ -53,7 +53,7 @@ namespace rectify::diagnosis
     /// and each fit runs the model some twenty times per candidate.
     double              relative_tolerance = 1e-5;
     double              bic_threshold      = 10.0;
-    int                 grid_points        = 5;  ///< coarse start grid per effect parameter
+    int                 grid_points        = 9;  ///< coarse start grid per effect parameter
     int                 max_evaluations    = 40; ///< BOBYQA's, per candidate
     double              gain_range         = 0.1; ///< nuisance force gain in 1 +- this
     std::vector<std::string> effects;              ///< candidates; empty: the whole library
