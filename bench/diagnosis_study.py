@@ -19,7 +19,7 @@ range below: the part of its bounds where the effect moves the signals by
 more than a few times the noise floor (docs/diagnosis.md gives the detection
 limits).
 """
-import argparse, csv, json, math, os, random, subprocess, sys, time
+import argparse, concurrent.futures, csv, json, math, os, random, subprocess, sys, threading, time
 
 STUDY = {
     # effect: (key, low, high, log, scenario, frequencies, extra synth args)
@@ -49,6 +49,7 @@ def main():
     ap.add_argument("--cycles", type=int, default=16)
     ap.add_argument("--seed", type=int, default=2026)
     ap.add_argument("--effects", nargs="*", default=list(STUDY))
+    ap.add_argument("--jobs", type=int, default=2, help="cases at once (each diagnose then uses one thread)")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     rng = random.Random(a.seed)
@@ -76,9 +77,10 @@ def main():
             f.write(",".join(COLUMNS) + "\n")
     case_args = ["--case", a.case] if a.case else []
     start = time.time()
-    for n, (name, truth, key, value, scenario, freq, noise, extra) in enumerate(cases):
-        if name in done:
-            continue
+    lock = threading.Lock()
+
+    def one(n, case):
+        name, truth, key, value, scenario, freq, noise, extra = case
         d = os.path.join(a.out, name)
         synth = [a.rectify, "synth", *case_args, "--effect", truth, "--noise", str(noise),
                  "--seed", str(1000 + n), "--scenario", scenario, "--frequency", str(freq),
@@ -87,8 +89,9 @@ def main():
             synth += ["--param", f"{key}={value!r}"]
         subprocess.run(synth, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         t0 = time.time()
-        subprocess.run([a.rectify, "diagnose", *case_args, "--scenario", scenario, "--data",
-                        os.path.join(d, "data.csv"), "--out", os.path.join(d, "diagnosis")],
+        subprocess.run([a.rectify, "diagnose", *case_args, "--scenario", scenario, "--threads",
+                        str(max(1, 2 // a.jobs)), "--data", os.path.join(d, "data.csv"), "--out",
+                        os.path.join(d, "diagnosis")],
                        check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         wall = time.time() - t0
         s = json.load(open(os.path.join(d, "diagnosis", "summary.json")))
@@ -97,12 +100,18 @@ def main():
         before, after = s["residual_before"]["overall"], s["residual_after"]["overall"]
         row = [name, truth, s["effect"], int(s["effect"] == truth), key, value, fitted, rel, before,
                after, 1 - after / before, freq, noise, scenario, s["confidence"], round(wall, 1)]
-        with open(table, "a") as f:
-            f.write(",".join(str(x) for x in row) + "\n")
-        print(f"[{n + 1}/{len(cases)}] {name}: named {s['effect']}"
-              + (f", {key} {fitted:.4g} vs {value:.4g} ({100 * rel:.1f} %)" if key and s['effect'] == truth else "")
-              + f", residual {before:.3g} -> {after:.3g}, {wall:.0f} s ({time.time() - start:.0f} s in all)",
-              flush=True)
+        with lock:
+            with open(table, "a") as f:
+                f.write(",".join(str(x) for x in row) + "\n")
+            print(f"[{n + 1}/{len(cases)}] {name}: named {s['effect']}"
+                  + (f", {key} {fitted:.4g} vs {value:.4g} ({100 * rel:.1f} %)" if key and s['effect'] == truth else "")
+                  + f", residual {before:.3g} -> {after:.3g}, {wall:.0f} s ({time.time() - start:.0f} s in all)",
+                  flush=True)
+
+    with concurrent.futures.ThreadPoolExecutor(max_workers=a.jobs) as pool:
+        futures = [pool.submit(one, n, case) for n, case in enumerate(cases) if case[0] not in done]
+        for f in futures:
+            f.result()
     report(a.out, table)
 
 
