@@ -123,8 +123,8 @@ def report(out, table):
     names = list(STUDY) + ["none"]
     seen = [n for n in names if any(r["truth"] == n for r in rows)]
     named = sorted({r["named"] for r in rows} | set(seen), key=lambda x: names.index(x) if x in names else 99)
-    md = ["| hidden \\ named | " + " | ".join(named) + " | correct | parameter error (median / max) | shrink (min) |",
-          "|---|" + "---|" * (len(named) + 3)]
+    md = ["| hidden \\ named | " + " | ".join(named) + " | correct | parameter error (median / max) | within 10 % | shrink (min) | shrink >= 80 % |",
+          "|---|" + "---|" * (len(named) + 5)]
     for t in seen:
         rs = [r for r in rows if r["truth"] == t]
         counts = [sum(1 for r in rs if r["named"] == n) for n in named]
@@ -133,7 +133,9 @@ def report(out, table):
         shrinks = [float(r["shrink"]) for r in rs if r["correct"] == "1"]
         perr = f"{100 * errs[len(errs) // 2]:.1f} % / {100 * errs[-1]:.1f} %" if errs else "-"
         shr = f"{100 * min(shrinks):.0f} %" if shrinks and t != "none" else "-"
-        md.append(f"| {t} | " + " | ".join(str(c) for c in counts) + f" | {ok}/{len(rs)} ({100 * ok / len(rs):.0f} %) | {perr} | {shr} |")
+        within = f"{sum(1 for e in errs if e <= 0.1)}/{len(rs)}" if t != "none" else "-"
+        big = f"{sum(1 for x in shrinks if x >= 0.8)}/{len(rs)}" if t != "none" else "-"
+        md.append(f"| {t} | " + " | ".join(str(c) for c in counts) + f" | {ok}/{len(rs)} ({100 * ok / len(rs):.0f} %) | {perr} | {within} | {shr} | {big} |")
     with open(os.path.join(out, "study.md"), "w") as f:
         f.write("\n".join(md) + "\n")
     print("\n".join(md))
