@@ -32,16 +32,16 @@ namespace rectify::system
     return (force - c.damping * v - c.stiffness * x) / c.mass;
   }
 
-  /// A free reed hits its seat when x falls through -reed_seat_tolerance (1e-13 m,
-  /// far below any opening that matters): not through 0, because a reed
-  /// that has just lifted starts its segment at x = 0, where CVODE would mask
-  /// the root and miss an immediate return through the seat.
+  /// A reed lifts off to x = reed_seat_tolerance (1e-13 m, far below any
+  /// opening that matters), not to 0: a segment that started at x = 0 would
+  /// have its impact root masked by CVODE, and a reed pushed straight back
+  /// could pass its seat unseen.
   inline constexpr double reed_seat_tolerance = 1e-13;
 
   /// Root function: crosses zero from above at lift-off (seated) or impact (free).
   inline double reed_root(bool seated, double x, double force)
   {
-    return seated ? reed_lift_force - force : x + reed_seat_tolerance;
+    return seated ? reed_lift_force - force : x;
   }
 
   /// Applies a located root to (x, v) and returns whether the reed is now
@@ -50,7 +50,8 @@ namespace rectify::system
   {
     x = 0.0;
     if (seated)
-      { // lift-off from rest
+      { // lift-off from rest, a hair above the seat (see reed_seat_tolerance)
+        x = reed_seat_tolerance;
         v = 0.0;
         return false;
       }
