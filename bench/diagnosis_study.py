@@ -27,13 +27,14 @@ STUDY = {
     "outlet_compliance": ("seal_compliance_m3_per_Pa", 1e-12, 1e-10, True, "no-flow", [50, 100, 150], []),
     "valve_leakage": ("leak_resistance_Pa_s_per_m3", 2e10, 5e12, True, "no-flow", [50, 100, 150], []),
     # valve effects show in the flow: loaded runs (a no-flow run's valve passes little)
-    "orifice_flow": ("orifice_discharge_coefficient", 0.35, 0.65, False, "loaded", [75, 100],
+    "orifice_flow": ("orifice_discharge_coefficient", 0.35, 0.5, False, "loaded", [75, 100],
                      ["--current-pp", "4", "--current-bias", "2"]),
-    "line_inertance": ("outlet_inertance_Pa_s2_per_m3", 2e7, 3e8, True, "no-flow", [50, 100, 150], []),
+    # at 50 Hz an inertance below 1e8 moves the signals by under 3 noise units
+    "line_inertance": ("outlet_inertance_Pa_s2_per_m3", 4e7, 3e8, True, "no-flow", [100, 150], []),
     "coil_dynamics": ("coil_inductance_H", 5e-4, 5e-3, True, "no-flow", [50, 100, 150], []),
     "piston_friction": ("coulomb_friction_N", 4.0, 60.0, True, "loaded", [75, 100],
                         ["--current-pp", "4", "--current-bias", "2"]),
-    "reed_second_mode": ("second_mode_frequency_Hz", 2000.0, 3500.0, True, "loaded", [75, 100],
+    "reed_second_mode": ("second_mode_frequency_Hz", 2000.0, 3000.0, True, "loaded", [75, 100],
                          ["--current-pp", "4", "--current-bias", "2"]),
 }
 NONE_FREQUENCIES = [50, 100, 150]
@@ -48,6 +49,8 @@ def main():
     ap.add_argument("--case", default=None)
     ap.add_argument("--out", required=True)
     ap.add_argument("--per-effect", type=int, default=10)
+    ap.add_argument("--per-loaded-effect", type=int, default=None,
+                    help="cases per effect studied in loaded runs (default: --per-effect; loaded runs cost ~4x)")
     ap.add_argument("--none", type=int, default=20)
     ap.add_argument("--cycles", type=int, default=16)
     ap.add_argument("--seed", type=int, default=2026)
@@ -59,7 +62,8 @@ def main():
     cases = []
     for effect in a.effects:
         key, lo, hi, log, scenario, freqs, extra = STUDY[effect]
-        for i in range(a.per_effect):
+        count = a.per_loaded_effect if scenario == "loaded" and a.per_loaded_effect else a.per_effect
+        for i in range(count):
             u = rng.random()
             value = lo * (hi / lo) ** u if log else lo + u * (hi - lo)
             cases.append((f"{effect}-{i:02d}", effect, key, value, scenario, freqs[i % len(freqs)],

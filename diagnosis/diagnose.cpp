@@ -141,17 +141,22 @@ namespace rectify::diagnosis
       return std::sqrt(total.sum / static_cast<double>(std::max<std::size_t>(total.n, 1)));
     }
 
-    CandidateResult fit(const Evaluator &ev, std::vector<Signals> &predictions)
+    /// Fits ev's candidate: from a coarse grid over the effect's first
+    /// parameter (gain 1), or, when `from` is given (a point in [0, 1]^k),
+    /// locally from there with small first steps.
+    CandidateResult fit(const Evaluator &ev, std::vector<Signals> &predictions,
+                        const std::vector<double> *from_point = nullptr)
     {
       const auto      start = Clock::now();
       CandidateResult c;
       c.effect = ev.effect ? ev.effect->name() : "none";
-      Objective o{&ev};
+      Objective o{&ev, 0, 0, 0, 1e300, {}};
       const unsigned dim = static_cast<unsigned>(ev.dimension());
-      // coarse grid over the effect's first parameter, gain at 1
       std::vector<double> u(dim, 0.5);
       std::vector<std::pair<double, std::vector<double>>> grid;
-      if (ev.effect)
+      if (from_point)
+        grid.emplace_back(objective(dim, from_point->data(), nullptr, &o), *from_point);
+      else if (ev.effect)
         for (int g = 0; g < ev.options.grid_points; ++g)
           {
             u[0] = (g + 0.5) / ev.options.grid_points;
@@ -172,7 +177,7 @@ namespace rectify::diagnosis
         {
           std::vector<double> from   = grid[start_i].second;
           double              best_f = grid[start_i].first;
-          double initial_step = 0.5 / ev.options.grid_points;
+          double initial_step = from_point ? 0.02 : 0.5 / ev.options.grid_points;
           for (int attempt = 0; attempt < 3; ++attempt)
             {
               std::vector<double> x = from;
@@ -203,6 +208,7 @@ namespace rectify::diagnosis
       c.message = "NLopt status " + std::to_string(static_cast<int>(status));
       const std::vector<double> x = o.best_u; // the best point seen (grid or optimisers)
 
+      c.u           = x;
       c.values      = ev.values(x);
       c.force_gain  = ev.gain(x);
       c.k           = static_cast<int>(dim);
@@ -474,6 +480,33 @@ namespace rectify::diagnosis
                           order.size() > 1 ? fitted[order[order[0] == i ? 1 : 0]].bic - c.bic : 0.0);
             rr.decision = std::string(buf) + rr.signature_detail;
             current     = predictions[i];
+            // Refine: the residual scales hold the model's response to the
+            // drive's noise, computed so far with the model as it was; the
+            // named effect can change that response many-fold (a soft outlet
+            // seal turns the outlet valve's jitter into outlet pressure's),
+            // which weighs the signals wrongly and biases the parameter.
+            // Recalibrate with the fitted model and refit locally, until the
+            // parameters settle (iteratively reweighted least squares).
+            std::vector<double> u = c.u;
+            for (int pass = 0; pass < options.refine_passes; ++pass)
+              {
+                Evaluator ev{base, map, runs, todo[i], options};
+                calibrate_noise(ev.parameters(u), map, runs, options.relative_tolerance);
+                std::vector<Signals> refined;
+                const auto           r = fit(ev, refined, &u);
+                if (r.failed)
+                  break;
+                double moved = std::abs(r.force_gain / rr.force_gain - 1.0);
+                for (std::size_t j = 0; j < r.values.size(); ++j)
+                  moved = std::max(moved, std::abs(r.values[j] / rr.values[j] - 1.0));
+                u             = r.u;
+                rr.values     = r.values;
+                rr.force_gain = r.force_gain;
+                current       = refined;
+                ++rr.refine_passes;
+                if (moved < 0.01)
+                  break;
+              }
             break;
           }
         if (rr.effect == "none")
@@ -558,6 +591,7 @@ namespace rectify::diagnosis
                           {"decision", rr.decision},
                           {"signature_explained", rr.signature_explained},
                           {"signature", rr.signature_detail},
+                          {"refits_with_rescaled_residuals", rr.refine_passes},
                           {"candidates", candidates}});
         if (&rr == &first)
           parameters = p;

@@ -56,6 +56,7 @@ namespace rectify::diagnosis
     int                 grid_points        = 9;  ///< coarse start grid per effect parameter
     int                 max_evaluations    = 40; ///< BOBYQA's, per candidate
     double              gain_range         = 0.1; ///< nuisance force gain in 1 +- this
+    int                 refine_passes      = 3;  ///< at most, after naming (see diagnose.cpp)
     std::vector<std::string> effects;              ///< candidates; empty: the whole library
     unsigned            threads = 0;               ///< 0: all cores
     int                 rounds  = 1;               ///< 2: look for a second effect
@@ -79,6 +80,7 @@ namespace rectify::diagnosis
     std::string         not_testable;      ///< why it was skipped (then no fit)
     std::vector<double> values;            ///< fitted effect parameters
     double              force_gain = 1.0;  ///< fitted nuisance
+    std::vector<double> u;                 ///< the fit as a point in [0, 1]^k
     int                 k          = 0;    ///< parameters fitted
     double              ssr_train  = 0;
     std::size_t         n_train    = 0;
@@ -100,6 +102,7 @@ namespace rectify::diagnosis
     std::vector<CandidateResult> candidates;
     bool                         signature_explained = false;
     std::string                  signature_detail;
+    int                          refine_passes = 0; ///< refits with rescaled residuals
   };
 
   struct DiagnosisResult
