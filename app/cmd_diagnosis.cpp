@@ -211,21 +211,29 @@ namespace rectify::app
         "\n# with the named effect(s) and the fitted force gain; see summary.json.\n" +
         diagnosis::edit_case_text(text, std::filesystem::path(file.name()).parent_path(), entries);
       write_file_atomic(out / case_name, edited);
-      // Check: the new case file reproduces the refitted model.
-      const CaseFile new_file = load_case(out / case_name);
-      const auto     new_p    = system::SystemParameters::from_case(new_file);
-      double         check_sq = 0;
-      std::size_t    check_n  = 0;
-      for (std::size_t r = 0; r < runs.size(); ++r)
+      // Check: the new case file reproduces the refitted model (a case
+      // file that cannot be read back or simulated is not left behind).
+      double check = 0;
+      try
         {
-          diagnosis::SimulationOptions so;
-          so.relative_tolerance = o.options.relative_tolerance;
-          const auto model = diagnosis::simulate_run(new_p, map, runs[r].run, runs[r].setup, so);
-          const auto norms = diagnosis::residual_norms(runs[r].run, model, result.runs[r].scales);
-          check_sq += norms.at("overall") * norms.at("overall");
-          ++check_n;
+          const CaseFile new_file = load_case(out / case_name);
+          const auto     new_p    = system::SystemParameters::from_case(new_file);
+          double         check_sq = 0;
+          for (std::size_t r = 0; r < runs.size(); ++r)
+            {
+              diagnosis::SimulationOptions so;
+              so.relative_tolerance = o.options.relative_tolerance;
+              const auto model = diagnosis::simulate_run(new_p, map, runs[r].run, runs[r].setup, so);
+              const auto norms = diagnosis::residual_norms(runs[r].run, model, result.runs[r].scales);
+              check_sq += norms.at("overall") * norms.at("overall");
+            }
+          check = std::sqrt(check_sq / static_cast<double>(runs.size()));
         }
-      const double check = std::sqrt(check_sq / static_cast<double>(check_n));
+      catch (...)
+        {
+          std::filesystem::remove(out / case_name);
+          throw;
+        }
       summary["new_case"] = {{"file", case_name},
                              {"residual_overall_from_file", check},
                              {"matches_refit", std::abs(check - result.residual_after.at("overall")) <=
@@ -330,6 +338,10 @@ namespace rectify::app
                   md += "- " + e->parameters()[i].meaning + ": `" + e->parameters()[i].key + " = " + sci(rr.values[i]) +
                         "` (bounds " + sci(e->parameters()[i].lower) + " .. " + sci(e->parameters()[i].upper) + ")\n";
                 md += "- confidence (BIC weight): " + sci(rr.confidence) + "\n";
+                if (rr.refine_passes > 0)
+                  md += "- refitted " + std::to_string(rr.refine_passes) +
+                        " time(s) with the residual's noise scales recomputed from the fitted model (the "
+                        "candidates' table below shows the first fit, on which the choice was made)\n";
               }
             md += "- force gain (nuisance): " + sci(rr.force_gain) + "\n- evidence: " + rr.decision + "\n\n";
             md += "| candidate | k | BIC - BIC(none) | AIC | RMS train | RMS held-out | parameters |\n|---|---|---|---|---|---|---|\n";

@@ -190,62 +190,55 @@ namespace rectify::diagnosis
             bias += e / static_cast<double>(n);
           }
         const double total = e_half[0] + e_half[1];
-        // harmonics of the residual over the whole cycles of the second half of the record
+        // over the whole cycles of the second half of the record, in one
+        // pass: the residual's harmonics and each cycle's swing (max - min)
+        // in data and model
         const std::size_t c_from = n_cycles / 2, c_to = n_cycles;
-        std::vector<double> amp(11, 0.0); // 0: mean, 1..10 harmonics
+        std::vector<std::complex<double>> c(11);
         double              energy = 0;
         std::size_t         m      = 0;
+        std::vector<double> dmin(c_to - c_from, 1e300), dmax(c_to - c_from, -1e300);
+        std::vector<double> mmin(dmin), mmax(dmax);
         for (std::size_t i = 0; i < n; ++i)
           {
             const double t = run.time_s[i] - t0;
             if (t < static_cast<double>(c_from) * T || t >= static_cast<double>(c_to) * T)
               continue;
-            ++m;
-          }
-        std::vector<std::complex<double>> c(11);
-        for (std::size_t i = 0; i < n; ++i)
-          {
-            const double t = run.time_s[i] - t0;
-            if (t < static_cast<double>(c_from) * T || t >= static_cast<double>(c_to) * T)
-              continue;
+            const auto   k = std::min(c_to - 1, static_cast<std::size_t>(t / T)) - c_from;
             const double e = values[i] - data[i];
-            energy += e * e / static_cast<double>(m);
-            for (int k = 0; k <= 10; ++k)
-              c[k] += e * std::polar(1.0, -2 * std::numbers::pi * k * f * t) / static_cast<double>(m);
+            ++m;
+            energy += e * e;
+            for (int h = 0; h <= 10; ++h)
+              c[h] += e * std::polar(1.0, -2 * std::numbers::pi * h * f * t);
+            dmin[k] = std::min(dmin[k], data[i]);
+            dmax[k] = std::max(dmax[k], data[i]);
+            mmin[k] = std::min(mmin[k], values[i]);
+            mmax[k] = std::max(mmax[k], values[i]);
           }
-        for (int k = 0; k <= 10; ++k)
-          amp[k] = (k == 0 ? 1.0 : 2.0) * std::abs(c[k]);
-        double harmonic_energy = amp[0] * amp[0];
-        for (int k = 1; k <= 10; ++k)
-          harmonic_energy += 0.5 * amp[k] * amp[k];
-        int top = 1;
-        for (int k = 1; k <= 10; ++k)
-          if (amp[k] > amp[top])
-            top = k;
-        const double above = energy > 0 ? std::max(0.0, 1.0 - harmonic_energy / energy) : 0.0;
-        // per-cycle swing (max - min) in data and model, mean over the second half
-        double swing_data = 0, swing_model = 0;
-        std::size_t n_sw = 0;
-        for (std::size_t k = c_from; k < c_to; ++k)
+        std::vector<double> amp(11, 0.0); // 0: mean, 1..10 harmonics
+        if (m > 0)
           {
-            double dmin = 1e300, dmax = -1e300, mmin = 1e300, mmax = -1e300;
-            for (std::size_t i = 0; i < n; ++i)
-              {
-                const double t = run.time_s[i] - t0;
-                if (t < static_cast<double>(k) * T || t >= static_cast<double>(k + 1) * T)
-                  continue;
-                dmin = std::min(dmin, data[i]);
-                dmax = std::max(dmax, data[i]);
-                mmin = std::min(mmin, values[i]);
-                mmax = std::max(mmax, values[i]);
-              }
-            if (dmax >= dmin)
-              {
-                swing_data += dmax - dmin;
-                swing_model += mmax - mmin;
-                ++n_sw;
-              }
+            energy /= static_cast<double>(m);
+            for (int h = 0; h <= 10; ++h)
+              amp[h] = (h == 0 ? 1.0 : 2.0) * std::abs(c[h]) / static_cast<double>(m);
           }
+        double harmonic_energy = amp[0] * amp[0];
+        for (int h = 1; h <= 10; ++h)
+          harmonic_energy += 0.5 * amp[h] * amp[h];
+        int top = 1;
+        for (int h = 1; h <= 10; ++h)
+          if (amp[h] > amp[top])
+            top = h;
+        const double above = energy > 0 ? std::max(0.0, 1.0 - harmonic_energy / energy) : 0.0;
+        double      swing_data = 0, swing_model = 0;
+        std::size_t n_sw = 0;
+        for (std::size_t k = 0; k < dmin.size(); ++k)
+          if (dmax[k] >= dmin[k])
+            {
+              swing_data += dmax[k] - dmin[k];
+              swing_model += mmax[k] - mmin[k];
+              ++n_sw;
+            }
         if (n_sw > 0)
           {
             swing_data /= static_cast<double>(n_sw);

@@ -263,6 +263,48 @@ TEST(Diagnosis, LocalisationFindsTheCycleHalfAndTheHarmonic)
   // the norms: RMS of (model - data) / swing
   const auto norms = residual_norms(run, third, scales);
   EXPECT_NEAR(norms.at("outlet_pressure_Pa"), (2e5 / std::sqrt(2.0)) / scales.at("outlet_pressure_Pa"), 1e-3);
+
+  // per-cycle swing: a model at 80 % of the data's swing of 2 MPa
+  Signals smaller = refill;
+  for (std::size_t i = 0; i < run.time_s.size(); ++i)
+    smaller["outlet_pressure_Pa"][i] = 3e6 + 0.8 * (run.signal("outlet_pressure_Pa")[i] - 3e6);
+  const auto c = localise(run, smaller, f, scales);
+  EXPECT_NEAR(c.numbers["outlet_pressure_Pa"]["cycle_swing_data"].get<double>(), 2e6, 0.01 * 2e6);
+  EXPECT_NEAR(c.numbers["outlet_pressure_Pa"]["cycle_swing_model"].get<double>(), 1.6e6, 0.01 * 1.6e6);
+  EXPECT_NE(c.sentences[0].find("per cycle the data swing 2 MPa, the model 1.6 MPa"), std::string::npos)
+    << c.sentences[0];
+  EXPECT_EQ(c.sentences[0].find("over the record"), std::string::npos) << c.sentences[0]; // steady
+
+  // a residual whose amplitude ramps up (or down) over the record
+  Signals growing = refill, fading = refill;
+  const double duration = run.time_s.back();
+  for (std::size_t i = 0; i < run.time_s.size(); ++i)
+    {
+      const double t = run.time_s[i], e = 2e5 * std::sin(2 * std::numbers::pi * f * t);
+      growing["outlet_pressure_Pa"][i] = run.signal("outlet_pressure_Pa")[i] + e * t / duration;
+      fading["outlet_pressure_Pa"][i]  = run.signal("outlet_pressure_Pa")[i] + e * (1 - t / duration);
+    }
+  const auto g = localise(run, growing, f, scales);
+  // RMS over the thirds of a linear ramp: last / first -> sqrt(19) = 4.36
+  // as the cycles per third grow; here, summed sample by sample:
+  double e2[3] = {0, 0, 0}, n3[3] = {0, 0, 0};
+  for (std::size_t i = 0; i < run.time_s.size(); ++i)
+    {
+      const double t = run.time_s[i];
+      const int    k = std::min(2, static_cast<int>(3 * t / duration));
+      e2[k] += std::pow(2e5 * std::sin(2 * std::numbers::pi * f * t) * t / duration, 2);
+      n3[k] += 1;
+    }
+  const double growth = g.numbers["outlet_pressure_Pa"]["rms_by_third_of_record"][2].get<double>() /
+                        g.numbers["outlet_pressure_Pa"]["rms_by_third_of_record"][0].get<double>();
+  EXPECT_NEAR(growth, std::sqrt((e2[2] / n3[2]) / (e2[0] / n3[0])), 1e-3);
+  EXPECT_NEAR(growth, std::sqrt(19.0), 0.15);
+  EXPECT_NE(g.sentences[0].find("grows over the record (last third " + format_number(std::round(growth * 10) / 10) +
+                                " x the first)"),
+            std::string::npos)
+    << g.sentences[0];
+  const auto d = localise(run, fading, f, scales);
+  EXPECT_NE(d.sentences[0].find("fades over the record"), std::string::npos) << d.sentences[0];
 }
 
 TEST(Diagnosis, SynthThenDiagnoseNamesAHiddenLeakAndFindsNothingInCleanData)
