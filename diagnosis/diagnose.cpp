@@ -22,6 +22,42 @@ namespace rectify::diagnosis
       return std::chrono::duration<double>(Clock::now() - start).count();
     }
 
+    /// fn(i) for i in [0, n) on up to `threads` threads; rethrows the first
+    /// exception. The runs of one evaluation are independent simulations.
+    template <typename F>
+    void parallel_for(std::size_t n, unsigned threads, const F &fn)
+    {
+      threads = static_cast<unsigned>(std::min<std::size_t>(std::max(1u, threads), n));
+      if (threads <= 1)
+        {
+          for (std::size_t i = 0; i < n; ++i)
+            fn(i);
+          return;
+        }
+      std::atomic<std::size_t> next{0};
+      std::exception_ptr       error;
+      std::mutex               mutex;
+      std::vector<std::thread> pool;
+      for (unsigned t = 0; t < threads; ++t)
+        pool.emplace_back([&] {
+          for (std::size_t i; (i = next++) < n;)
+            try
+              {
+                fn(i);
+              }
+            catch (...)
+              {
+                std::lock_guard lock(mutex);
+                if (!error)
+                  error = std::current_exception();
+              }
+        });
+      for (auto &t : pool)
+        t.join();
+      if (error)
+        std::rethrow_exception(error);
+    }
+
     /// Parameters at a point u in [0, 1]^(k): the effect's parameters, then the gain.
     struct Evaluator
     {
@@ -30,6 +66,7 @@ namespace rectify::diagnosis
       const std::vector<RunCase>     &runs;
       const Effect                   *effect; // null: none
       const DiagnoseOptions          &options;
+      unsigned                        run_threads = 1; ///< runs simulated at once per evaluation
 
       std::size_t dimension() const { return (effect ? effect->parameters().size() : 0) + 1; }
 
@@ -56,15 +93,19 @@ namespace rectify::diagnosis
       /// Sum of squared normalised residuals over the training samples.
       SquaredResidual training(const std::vector<double> &u) const
       {
-        const auto      p = parameters(u);
+        const auto                   p = parameters(u);
+        std::vector<SquaredResidual> per_run(runs.size());
+        parallel_for(runs.size(), run_threads, [&](std::size_t i) {
+          const auto       &rc = runs[i];
+          SimulationOptions so;
+          so.relative_tolerance = options.relative_tolerance;
+          so.n_samples          = rc.n_train;
+          const auto model      = simulate_run(p, map, rc.run, rc.setup, so);
+          per_run[i]            = squared_residual(rc.run, model, rc.scales, 0, rc.n_train);
+        });
         SquaredResidual total;
-        for (const auto &rc : runs)
+        for (const auto &r : per_run)
           {
-            SimulationOptions so;
-            so.relative_tolerance = options.relative_tolerance;
-            so.n_samples          = rc.n_train;
-            const auto model      = simulate_run(p, map, rc.run, rc.setup, so);
-            const auto r          = squared_residual(rc.run, model, rc.scales, 0, rc.n_train);
             total.sum += r.sum;
             total.n += r.n;
           }
@@ -111,15 +152,14 @@ namespace rectify::diagnosis
 
     std::vector<Signals> simulate_all(const system::SystemParameters &p,
                                       const maps::ResistanceMap &map,
-                                      const std::vector<RunCase> &runs, double rtol)
+                                      const std::vector<RunCase> &runs, double rtol, unsigned threads = 1)
     {
-      std::vector<Signals> out;
-      for (const auto &rc : runs)
-        {
-          SimulationOptions so;
-          so.relative_tolerance = rtol;
-          out.push_back(simulate_run(p, map, rc.run, rc.setup, so));
-        }
+      std::vector<Signals> out(runs.size());
+      parallel_for(runs.size(), threads, [&](std::size_t i) {
+        SimulationOptions so;
+        so.relative_tolerance = rtol;
+        out[i]                = simulate_run(p, map, runs[i].run, runs[i].setup, so);
+      });
       return out;
     }
 
@@ -222,7 +262,8 @@ namespace rectify::diagnosis
       c.aic         = lnL + 2.0 * c.k;
       try
         {
-          predictions   = simulate_all(ev.parameters(x), ev.map, ev.runs, ev.options.relative_tolerance);
+          predictions   = simulate_all(ev.parameters(x), ev.map, ev.runs, ev.options.relative_tolerance,
+                                         ev.run_threads);
           c.rms_train   = pooled_rms(ev.runs, predictions, false);
           c.rms_heldout = pooled_rms(ev.runs, predictions, true);
         }
@@ -269,10 +310,10 @@ namespace rectify::diagnosis
   }
 
   void calibrate_noise(const system::SystemParameters &base, const maps::ResistanceMap &map,
-                       std::vector<RunCase> &runs, double rtol)
+                       std::vector<RunCase> &runs, double rtol, unsigned threads)
   {
-    for (auto &rc : runs)
-      {
+    parallel_for(runs.size(), threads, [&](std::size_t i) {
+        auto &rc = runs[i];
         SimulationOptions so;
         so.relative_tolerance = rtol;
         const auto clean      = simulate_run(base, map, rc.run, rc.setup, so);
@@ -282,12 +323,12 @@ namespace rectify::diagnosis
         for (const auto &[name, values] : clean)
           {
             double d2 = 0;
-            for (std::size_t i = 0; i < values.size(); ++i)
-              d2 += std::pow(shaken.at(name)[i] - values[i], 2) / static_cast<double>(values.size());
+            for (std::size_t j = 0; j < values.size(); ++j)
+              d2 += std::pow(shaken.at(name)[j] - values[j], 2) / static_cast<double>(values.size());
             const double measured = white_noise_sd(rc.run.signal(name));
             rc.scales[name] = std::max(std::sqrt(measured * measured + d2), 1e-3 * rc.swings.at(name));
           }
-      }
+      });
   }
 
   DiagnosisResult diagnose(const system::SystemParameters &base_in, const maps::ResistanceMap &map,
@@ -296,7 +337,8 @@ namespace rectify::diagnosis
     const auto start = Clock::now();
     if (runs.empty())
       throw InputError("diagnose: no measured runs given");
-    calibrate_noise(base_in, map, runs, options.relative_tolerance);
+    const unsigned cores = options.threads ? options.threads : std::max(1u, std::thread::hardware_concurrency());
+    calibrate_noise(base_in, map, runs, options.relative_tolerance, cores);
     DiagnosisResult result;
     RunTraits       traits;
     traits.scenario      = runs.front().setup.scenario;
@@ -315,7 +357,7 @@ namespace rectify::diagnosis
         library.push_back(find_effect(name));
 
     system::SystemParameters base = base_in;
-    result.before = simulate_all(base, map, runs, options.relative_tolerance);
+    result.before = simulate_all(base, map, runs, options.relative_tolerance, cores);
     for (std::size_t r = 0; r < runs.size(); ++r)
       result.localisation.push_back(localise(runs[r].run, result.before[r],
                                              runs[r].setup.frequency_Hz, runs[r].swings));
@@ -355,9 +397,7 @@ namespace rectify::diagnosis
         std::vector<std::vector<Signals>> predictions(todo.size());
         std::atomic<std::size_t>          next{0};
         std::mutex                        mutex;
-        const unsigned threads = std::max(1u, std::min<unsigned>(
-          options.threads ? options.threads : std::thread::hardware_concurrency(),
-          static_cast<unsigned>(todo.size())));
+        const unsigned threads = std::max(1u, std::min<unsigned>(cores, static_cast<unsigned>(todo.size())));
         std::vector<std::thread> pool;
         std::exception_ptr       error;
         for (unsigned t = 0; t < threads; ++t)
@@ -490,8 +530,8 @@ namespace rectify::diagnosis
             std::vector<double> u = c.u;
             for (int pass = 0; pass < options.refine_passes; ++pass)
               {
-                Evaluator ev{base, map, runs, todo[i], options};
-                calibrate_noise(ev.parameters(u), map, runs, options.relative_tolerance);
+                Evaluator ev{base, map, runs, todo[i], options, cores}; // one fit: its runs at once
+                calibrate_noise(ev.parameters(u), map, runs, options.relative_tolerance, cores);
                 std::vector<Signals> refined;
                 const auto           r = fit(ev, refined, &u);
                 if (r.failed)

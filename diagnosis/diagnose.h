@@ -122,9 +122,10 @@ namespace rectify::diagnosis
   RunCase make_run_case(MeasuredRun run, system::Scenario scenario, double frequency_Hz,
                         double training_fraction);
 
-  /// Sets each run's residual scales (noise) with the base model.
+  /// Sets each run's residual scales (noise) with the model `base`, the
+  /// runs simulated `threads` at once.
   void calibrate_noise(const system::SystemParameters &base, const maps::ResistanceMap &map,
-                       std::vector<RunCase> &runs, double relative_tolerance);
+                       std::vector<RunCase> &runs, double relative_tolerance, unsigned threads = 1);
 
   /// Calibrates the runs' noise (calibrate_noise) and runs the workflow.
   DiagnosisResult diagnose(const system::SystemParameters &base, const maps::ResistanceMap &map,
