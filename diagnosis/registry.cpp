@@ -1,6 +1,6 @@
-// The effect library: one line per effect. To add an effect, write
-// effects/<name>.cpp with `make_<name>()`, declare it here and list it below
-// (and add the file to CMakeLists.txt).
+// The effect library. To add an effect, write effects/<name>.cpp with
+// `make_<name>()` (CMake picks the file up), declare it here and list it
+// below.
 #include "diagnosis/effect.h"
 
 namespace rectify::diagnosis
