@@ -56,6 +56,7 @@ def main():
     ap.add_argument("--seed", type=int, default=2026)
     ap.add_argument("--effects", nargs="*", default=list(STUDY))
     ap.add_argument("--jobs", type=int, default=2, help="cases at once (each diagnose then uses one thread)")
+    ap.add_argument("--report-only", action="store_true", help="only (re)write study.md from cases.csv")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     rng = random.Random(a.seed)
@@ -75,6 +76,9 @@ def main():
                        [] if i % 4 else ["--current-pp", "4", "--current-bias", "2"]))
 
     table = os.path.join(a.out, "cases.csv")
+    if a.report_only:
+        report(a.out, table, a.rectify)
+        return
     done = set()
     if os.path.exists(table):
         with open(table) as f:
@@ -119,16 +123,64 @@ def main():
         futures = [pool.submit(one, n, case) for n, case in enumerate(cases) if case[0] not in done]
         for f in futures:
             f.result()
-    report(a.out, table)
+    report(a.out, table, a.rectify)
 
 
-def report(out, table):
+def gaps(out, rectify, rows):
+    """Gap of the model to the noise-free truth, before and after, in noise
+    units: the record simulated again without noise (synth --noise 0 from
+    answer.json) against the overlay's model columns. The residual against
+    the data cannot fall below the noise (about 1 unit), so for an effect a
+    few noise units strong its shrink is capped well below 80 %; the gap to
+    the truth is not. Cached in DIR/<case>/gap.json."""
+    result = {}
+    for r in rows:
+        d = os.path.join(out, r["case"])
+        cache = os.path.join(d, "gap.json")
+        if r["truth"] == "none" or r["correct"] != "1":
+            continue
+        if not os.path.exists(cache):
+            a = json.load(open(os.path.join(d, "answer.json")))
+            clean_dir = os.path.join(d, "clean")
+            cmd = [rectify, "synth", "--case", a["case"], "--effect", a["effect"], "--noise", "0", "--drive-noise", "0",
+                   "--scenario", a["scenario"], "--frequency", repr(a["frequency_Hz"]), "--cycles", str(a["cycles"]),
+                   "--samples-per-cycle", str(a["samples_per_cycle"]), "--current-pp", repr(a["current_pp_A"]),
+                   "--current-bias", repr(a["current_bias_A"]),
+                   "--drive", "voltage" if a["drive"] == "voltage_V" else "current", "--out", clean_dir]
+            for k, v in a["parameters"].items():
+                cmd += ["--param", f"{k}={v!r}"]
+            subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            clean = list(csv.DictReader(open(os.path.join(clean_dir, "data.csv"))))
+            overlay = list(csv.DictReader(open(os.path.join(d, "diagnosis", "overlay-1.csv"))))
+            if len(clean) != len(overlay) or any(abs(float(c["time_s"]) - float(o["time_s"])) > 1e-9
+                                                 for c, o in zip(clean, overlay)):
+                raise SystemExit(f"{d}: clean record and overlay do not share their times")
+            s = json.load(open(os.path.join(d, "diagnosis", "summary.json")))
+            g = {"before": 0.0, "after": 0.0}
+            signals = [k for k in s["residual_before"] if k != "overall"]
+            for sig in signals:
+                n = len(overlay)
+                rms = lambda col, ref: math.sqrt(sum((float(o[col]) - ref(i)) ** 2 for i, o in enumerate(overlay)) / n)
+                scale = rms("before_" + sig, lambda i: float(overlay[i]["data_" + sig])) / s["residual_before"][sig]
+                for when in ("before", "after"):
+                    g[when] += (rms(f"{when}_{sig}", lambda i: float(clean[i][sig])) / scale) ** 2 / len(signals)
+            g = {k: math.sqrt(v) for k, v in g.items()}
+            with open(cache + ".tmp", "w") as f:
+                json.dump(g, f)
+            os.replace(cache + ".tmp", cache)
+        result[r["case"]] = json.load(open(cache))
+    return result
+
+
+def report(out, table, rectify=None):
     rows = list(csv.DictReader(open(table)))
+    gap = gaps(out, rectify, rows) if rectify else {}
     names = list(STUDY) + ["none"]
     seen = [n for n in names if any(r["truth"] == n for r in rows)]
     named = sorted({r["named"] for r in rows} | set(seen), key=lambda x: names.index(x) if x in names else 99)
-    md = ["| hidden \\ named | " + " | ".join(named) + " | correct | parameter error (median / max) | within 10 % | shrink (min) | shrink >= 80 % |",
-          "|---|" + "---|" * (len(named) + 5)]
+    md = ["| hidden \\ named | " + " | ".join(named) + " | correct | parameter error (median / max) | within 10 % | shrink (min) | shrink >= 80 % |"
+          + (" gap to truth shrink (min) | gap shrink >= 80 % |" if gap else ""),
+          "|---|" + "---|" * (len(named) + 5 + (2 if gap else 0))]
     for t in seen:
         rs = [r for r in rows if r["truth"] == t]
         counts = [sum(1 for r in rs if r["named"] == n) for n in named]
@@ -139,7 +191,12 @@ def report(out, table):
         shr = f"{100 * min(shrinks):.0f} %" if shrinks and t != "none" else "-"
         within = f"{sum(1 for e in errs if e <= 0.1)}/{len(rs)}" if t != "none" else "-"
         big = f"{sum(1 for x in shrinks if x >= 0.8)}/{len(rs)}" if t != "none" else "-"
-        md.append(f"| {t} | " + " | ".join(str(c) for c in counts) + f" | {ok}/{len(rs)} ({100 * ok / len(rs):.0f} %) | {perr} | {within} | {shr} | {big} |")
+        line = f"| {t} | " + " | ".join(str(c) for c in counts) + f" | {ok}/{len(rs)} ({100 * ok / len(rs):.0f} %) | {perr} | {within} | {shr} | {big} |"
+        if gap:
+            gs = [1 - gap[r["case"]]["after"] / gap[r["case"]]["before"] for r in rs if r["case"] in gap]
+            line += (f" {100 * min(gs):.0f} % | {sum(1 for x in gs if x >= 0.8)}/{len(rs)} |" if gs and t != "none"
+                     else " - | - |")
+        md.append(line)
     with open(os.path.join(out, "study.md"), "w") as f:
         f.write("\n".join(md) + "\n")
     print("\n".join(md))

@@ -1,6 +1,7 @@
 #include "system/model.h"
 
 #include <cmath>
+#include <numbers>
 
 #include "common/case_file.h"
 
@@ -76,6 +77,12 @@ namespace rectify::system
                         std::sqrt(4.0 * M_PI * p.reed.pressure_area_m2); // pi d, pi d^2/4 = A_r
     orifice_factor = Cd > 0 ? p.fluid.density_kg_per_m3 / (2.0 * Cd * Cd * P * P) : 0.0;
     L_line         = p.lines.outlet_inertance_Pa_s2_per_m3;
+    // With an inertial line the oil between the valve and the line needs its
+    // own compliance: half the line's oil (a T-section), else a closing valve
+    // stops the line's flow through no volume at all (a spike of GPa).
+    C_node = L_line > 0 ? 0.5 * std::numbers::pi / 4 * p.lines.diameter_m * p.lines.diameter_m *
+                            p.lines.length_m / beta_eff :
+                          0.0;
     coil_dynamics  = p.drive.coil_dynamics == "on";
     R_coil         = p.transducer.coil_resistance_ohm;
     L_coil         = p.transducer.coil_inductance_H;
@@ -154,6 +161,8 @@ namespace rectify::system
 
   double Model::stored_volume(int node, double p) const
   {
+    if (node == 3) // the node between the outlet valve and an inertial line
+      return c_.C_node * p;
     const double V = node == 0 ? c_.V_ch : node == 1 ? c_.V_h : c_.V_l;
     const double C = node == 0 ? c_.C_ch : node == 1 ? c_.C_h + c_.C_seal : c_.C_l;
     return C * p + V * c_.fluid.free_air_volume_change_per_volume(p);
@@ -187,6 +196,7 @@ namespace rectify::system
     s[state::coil_current]   = 1.0;
     s[state::outlet_reed2_x] = s[state::inlet_reed2_x] = 0.1 * x;
     s[state::outlet_reed2_v] = s[state::inlet_reed2_v] = v;
+    s[state::line_node_p]    = p;
     s.resize(n_states());
     return s;
   }
@@ -223,7 +233,13 @@ namespace rectify::system
     const double K1 = orifice(0), K2 = orifice(1);
     const double g5 = 1.0 / c_.R5, g6 = 1.0 / c_.R6;
 
-    f.q_outlet = c_.L_line > 0 ? y[state::line_flow] : branch_flow(f.R1 + c_.R3, K1, p_ch - p_h).first;
+    if (c_.L_line > 0) // valve into the node, line out of it
+      {
+        f.q_outlet = branch_flow(f.R1, K1, p_ch - y[state::line_node_p]).first;
+        f.q_line   = y[state::line_flow];
+      }
+    else
+      f.q_outlet = f.q_line = branch_flow(f.R1 + c_.R3, K1, p_ch - p_h).first;
     if (K2 == 0.0)
       {
         const double g24 = 1.0 / (f.R2 + c_.R4);
@@ -313,7 +329,7 @@ namespace rectify::system
     const double C_l  = c_.C_l + c_.V_l * c_.fluid.free_air_compliance_per_volume(y[low_p]);
     ydot[chamber_p]     = (c_.A_pi * y[piston_v] + f.q_inlet - f.q_outlet) / C_ch;
     ydot[accumulator_p] = f.q_accumulator / c_.C_acc;
-    ydot[high_p]        = (f.q_outlet - c_.A_po * y[actuator_v]) / C_h;
+    ydot[high_p]        = (f.q_line - c_.A_po * y[actuator_v]) / C_h;
     ydot[low_p]         = (f.q_low + c_.A_po * y[actuator_v]) / C_l;
     ydot[outlet_volume] = f.q_outlet;
     ydot[inlet_volume]  = f.q_inlet;
@@ -321,15 +337,10 @@ namespace rectify::system
 
     if (ydot.size() == thesis_count)
       return;
-    // Outlet-line inertance: L q' = p_ch - p_h - (R1 + R3) q - K q|q|. Behind a
-    // shut valve (R ~ 1e17) the flow's time constant L/R would be ~1e-10 s; L is
-    // floored at R x 1e-7 s, which only touches resistances above L / 1e-7 s
-    // (a shut valve), where the flow is nil either way.
-    const double L_eff = std::max(c_.L_line, (f.R1 + c_.R3) * 1e-7);
-    ydot[line_flow] = c_.L_line > 0 ?
-                        (y[chamber_p] - y[high_p] - (f.R1 + c_.R3) * f.q_outlet -
-                         f.K1 * f.q_outlet * std::abs(f.q_outlet)) / L_eff :
-                        0.0;
+    // Outlet-line inertance: L q_line' = p_node - p_h - R3 q_line, the node
+    // between valve and line filled by the valve: C_node p_node' = q_outlet - q_line.
+    ydot[line_flow]   = c_.L_line > 0 ? (y[line_node_p] - y[high_p] - c_.R3 * f.q_line) / c_.L_line : 0.0;
+    ydot[line_node_p] = c_.L_line > 0 ? (f.q_outlet - f.q_line) / c_.C_node : 0.0;
     ydot[coil_current] = drive_.is_voltage() && c_.coil_dynamics ?
                            (drive_.value(t) - c_.R_coil * y[coil_current]) / c_.L_coil :
                            0.0;

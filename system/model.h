@@ -82,6 +82,7 @@ namespace rectify::system
       outlet_reed2_v,
       inlet_reed2_x,
       inlet_reed2_v,
+      line_node_p,    ///< pressure between the outlet valve and the line, with line inertance
       count
     };
     /// States of the thesis model alone: a model with no effect on has only
@@ -111,6 +112,7 @@ namespace rectify::system
     double R_leak;                 ///< leak path across each valve
     double orifice_factor;         ///< rho / (2 Cd^2 P^2): orifice K = factor / x^2
     double L_line;                 ///< outlet-line inertance
+    double C_node;                 ///< oil between the outlet valve and the line (with L_line)
     bool   coil_dynamics;          ///< integrate the coil current (voltage drive)
     double R_coil, L_coil;
     double F_coulomb, v_friction;  ///< output-piston friction F_c tanh(v / v_s)
@@ -126,7 +128,9 @@ namespace rectify::system
     double R1, R2;                 ///< valve resistances [Pa s/m^3]
     double p_junction;             ///< p_a
     double p_outlet, p_inlet;      ///< p_o, p_i
-    double q_outlet;               ///< chamber -> high side, through the outlet valve
+    double q_outlet;               ///< out of the chamber through the outlet valve
+    double q_line;                 ///< into the high side through the outlet line (= q_outlet
+                                   ///< without line inertance)
     double q_inlet;                ///< junction -> chamber, through the inlet valve
     double q_accumulator;          ///< junction -> accumulator
     double q_low;                  ///< junction -> low side
@@ -156,7 +160,8 @@ namespace rectify::system
     /// Coil current: the drive itself, V/R, or the coil state (coil dynamics).
     double              current_A(double t, std::span<const double> y) const;
     /// Oil (and free air) volume stored at gauge pressure p on node 0 chamber,
-    /// 1 high side, 2 low side, relative to the bias state: the integral of
+    /// 1 high side, 2 low side, 3 the node between outlet valve and an inertial
+    /// line, relative to the bias state: the integral of
     /// the node's compliance (for the volume balances).
     double              stored_volume(int node, double p) const;
     /// True if an optional effect is on: the analytic Jacobian covers only

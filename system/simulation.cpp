@@ -326,14 +326,15 @@ namespace rectify::system
 
     // Volume balances over the whole run (from rest): each holds exactly for
     // the equations, so what is left is the integration error.
-    //   outlet valve:  V_out = C_h dp_h + A_po dx_act
+    //   outlet valve:  V_out = C_h dp_h (+ C_node dp_node, inertial line) + A_po dx_act
     //   inlet valve:   V_in  = -C_acc dp_acc - C_l dp_l + A_po dx_act
     //   chamber:       C_ch dp_ch = A_pi dx_p + V_in - V_out
     const double scale = std::max({std::abs(y[outlet_volume]), std::abs(y[inlet_volume]),
                                    c.A_pi * std::abs(y[piston_x]), c.A_pi * 1e-9});
     //   (C p is the node's stored volume, with free air its integral: Model::stored_volume)
+    const double node_volume = y.size() > line_node_p ? model.stored_volume(3, y[line_node_p]) : 0.0;
     const double e_out =
-      y[outlet_volume] - (model.stored_volume(1, y[high_p]) + c.A_po * y[actuator_x]);
+      y[outlet_volume] - (model.stored_volume(1, y[high_p]) + node_volume + c.A_po * y[actuator_x]);
     const double e_in = y[inlet_volume] - (-c.C_acc * y[accumulator_p] -
                                            model.stored_volume(2, y[low_p]) + c.A_po * y[actuator_x]);
     const double e_ch = model.stored_volume(0, y[chamber_p]) -
