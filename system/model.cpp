@@ -77,12 +77,13 @@ namespace rectify::system
                         std::sqrt(4.0 * M_PI * p.reed.pressure_area_m2); // pi d, pi d^2/4 = A_r
     orifice_factor = Cd > 0 ? p.fluid.density_kg_per_m3 / (2.0 * Cd * Cd * P * P) : 0.0;
     L_line         = p.lines.outlet_inertance_Pa_s2_per_m3;
-    // With an inertial line the oil between the valve and the line needs its
-    // own compliance: half the line's oil (a T-section), else a closing valve
-    // stops the line's flow through no volume at all (a spike of GPa).
-    C_node = L_line > 0 ? 0.5 * std::numbers::pi / 4 * p.lines.diameter_m * p.lines.diameter_m *
-                            p.lines.length_m / beta_eff :
-                          0.0;
+    // With an inertial line, the oil between the valve and the line needs a
+    // compliance of its own, else a closing valve stops the line's flow
+    // through no volume at all (a spike of GPa). It is taken from the high
+    // side's (a tenth of it), so the total stays the thesis's and L -> 0
+    // (R3 joining node and high side) is the thesis model again.
+    C_node = L_line > 0 ? 0.1 * C_h : 0.0;
+    C_h -= C_node;
     coil_dynamics  = p.drive.coil_dynamics == "on";
     R_coil         = p.transducer.coil_resistance_ohm;
     L_coil         = p.transducer.coil_inductance_H;

@@ -200,7 +200,7 @@ TEST(Effects, InertialLineFeedsTheHighSideThroughItsOwnNode)
   // Valve into the node between valve and line, line out of it:
   //   q_valve = (p_ch - p_node) / R1,  C_node p_node' = q_valve - q_line,
   //   L q_line' = p_node - p_h - R3 q_line,  C_h p_h' = q_line,
-  // C_node = half the line's oil, (pi d^2/4) l / (2 beta); the outlet
+  // C_node a tenth of the thesis's high side, C_h the rest; the outlet
   // pressure is the node's.
   auto p                                = reference();
   p.lines.outlet_inertance_Pa_s2_per_m3 = 1.12e8;
@@ -214,9 +214,10 @@ TEST(Effects, InertialLineFeedsTheHighSideThroughItsOwnNode)
   y[state::line_flow]     = 1e-6;
   const auto  &c      = m.constants();
   const double R1     = reference_map(p).evaluate(40e-6).resistance;
-  const double C_node = std::numbers::pi / 4 * p.lines.diameter_m * p.lines.diameter_m * p.lines.length_m /
-                        (2 * c.beta_eff);
+  const double C_h0   = make(reference(), Scenario::no_flow, 150).constants().C_h;
+  const double C_node = 0.1 * C_h0;
   EXPECT_NEAR(c.C_node, C_node, 1e-12 * C_node);
+  EXPECT_NEAR(c.C_h, 0.9 * C_h0, 1e-12 * C_h0);
   const Flows f = m.flows(y);
   EXPECT_NEAR(f.q_outlet, 0.6e6 / R1, 1e-12 * 0.6e6 / R1);
   EXPECT_EQ(f.q_line, 1e-6);
@@ -229,9 +230,11 @@ TEST(Effects, InertialLineFeedsTheHighSideThroughItsOwnNode)
 
   // A reed closing on the flowing line: the first version (valve and line in
   // one branch, no node) spiked the outlet pressure to 3.9 GPa at t = 64 ms
-  // in `rectify synth` of this case. With the node it stays within the
-  // chamber's range, and the
-  // volume balances (the node's oil included) close.
+  // in `rectify synth` of this case, 500x the chamber's peak. With the node
+  // the water hammer of the stopping line lifts the node above the chamber
+  // (9.8 vs 7.5 MPa here: a flow q stopped in C_node rises by up to
+  // q sqrt(L / C_node), 2.3 MPa for q = 3.6 cm^3/s) but not past twice the
+  // chamber's peak, and the volume balances (the node's oil included) close.
   RunOptions o = options(16);
   o.record     = true;
   o.relative_tolerance = 1e-6;
@@ -240,6 +243,6 @@ TEST(Effects, InertialLineFeedsTheHighSideThroughItsOwnNode)
   const auto p_out = r.series->column("outlet_pressure_Pa");
   const auto p_ch  = r.series->column("chamber_pressure_Pa");
   const double ch_max = *std::max_element(p_ch.begin(), p_ch.end());
-  EXPECT_LT(*std::max_element(p_out.begin(), p_out.end()), 1.2 * ch_max);
+  EXPECT_LT(*std::max_element(p_out.begin(), p_out.end()), 2.0 * ch_max);
   EXPECT_GT(*std::min_element(p_out.begin(), p_out.end()), -c.p_bias);
 }
