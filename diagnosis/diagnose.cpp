@@ -194,12 +194,15 @@ namespace rectify::diagnosis
       const unsigned dim = static_cast<unsigned>(ev.dimension());
       std::vector<double> u(dim, 0.5);
       std::vector<std::pair<double, std::vector<double>>> grid;
+      const int grid_points = ev.effect && ev.effect->parameters()[0].grid_points > 0 ?
+                                ev.effect->parameters()[0].grid_points :
+                                ev.options.grid_points;
       if (from_point)
         grid.emplace_back(objective(dim, from_point->data(), nullptr, &o), *from_point);
       else if (ev.effect)
-        for (int g = 0; g < ev.options.grid_points; ++g)
+        for (int g = 0; g < grid_points; ++g)
           {
-            u[0] = (g + 0.5) / ev.options.grid_points;
+            u[0] = (g + 0.5) / grid_points;
             grid.emplace_back(objective(dim, u.data(), nullptr, &o), u);
           }
       else
@@ -217,7 +220,7 @@ namespace rectify::diagnosis
         {
           std::vector<double> from   = grid[start_i].second;
           double              best_f = grid[start_i].first;
-          double initial_step = from_point ? 0.02 : 0.5 / ev.options.grid_points;
+          double initial_step = from_point ? 0.02 : 0.5 / grid_points;
           for (int attempt = 0; attempt < 3; ++attempt)
             {
               std::vector<double> x = from;

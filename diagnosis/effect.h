@@ -25,6 +25,9 @@ namespace rectify::diagnosis
     double      lower = 0, upper = 0; ///< physical bounds of the fit
     bool        log_scale = true;     ///< fitted in log(value): bounds span decades
     std::string meaning;              ///< one line for reports
+    /// Start grid over this parameter (0: the workflow's, 9 points). Finer
+    /// for an effect whose residual has narrow basins (a ringing's phase).
+    int grid_points = 0;
 
     /// The middle of the bounds (geometric for log_scale): synth's default.
     double mid() const;

@@ -12,7 +12,11 @@ namespace rectify::diagnosis
       "the outlet flow lags the chamber: the outlet valve's pressure drop overshoots at each "
       "opening and the outlet pressure rings; grows with frequency",
       std::vector<EffectParameter>{{"lines", "outlet_inertance_Pa_s2_per_m3", 1e5, 1e9, true,
-                                    "inertance of the outlet line (rho l / A)"}},
+                                    "inertance of the outlet line (rho l / A)",
+                                    // the outlet pressure rings at 1/(2 pi sqrt(L C)) after
+                                    // each closing; the ringing's phase makes the residual
+                                    // multimodal in L: start from 33 points (1.33x apart)
+                                    33}},
       [](std::span<const double> v, system::SystemParameters &p) {
         p.lines.outlet_inertance_Pa_s2_per_m3 = v[0];
       });
