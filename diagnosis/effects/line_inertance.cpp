@@ -8,9 +8,10 @@ namespace rectify::diagnosis
   {
     return std::make_shared<Effect>(
       "line_inertance",
-      "fluid inertance of the outlet line, L dq/dt in series with the line's resistance",
+      "fluid inertance of the outlet line, L dq/dt in series with the line's resistance, fed "
+      "through the outlet valve into the oil between valve and line",
       "the outlet flow lags the chamber: the outlet valve's pressure drop overshoots at each "
-      "opening and the outlet pressure rings; grows with frequency",
+      "opening and the outlet pressure rings after each closing; grows with frequency",
       std::vector<EffectParameter>{{"lines", "outlet_inertance_Pa_s2_per_m3", 1e5, 1e9, true,
                                     "inertance of the outlet line (rho l / A)",
                                     // the outlet pressure rings at 1/(2 pi sqrt(L C)) after
