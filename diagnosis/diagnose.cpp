@@ -182,8 +182,8 @@ namespace rectify::diagnosis
     }
 
     /// Fits ev's candidate: from a coarse grid over the effect's first
-    /// parameter (gain 1), or, when `from` is given (a point in [0, 1]^k),
-    /// locally from there with small first steps.
+    /// parameter (gain 1), or, when `from_point` is given (a point in
+    /// [0, 1]^k), locally from there with small first steps.
     CandidateResult fit(const Evaluator &ev, std::vector<Signals> &predictions,
                         const std::vector<double> *from_point = nullptr)
     {
@@ -398,41 +398,20 @@ namespace rectify::diagnosis
             }
         std::vector<CandidateResult>      fitted(todo.size());
         std::vector<std::vector<Signals>> predictions(todo.size());
-        std::atomic<std::size_t>          next{0};
-        std::mutex                        mutex;
-        const unsigned threads = std::max(1u, std::min<unsigned>(cores, static_cast<unsigned>(todo.size())));
-        std::vector<std::thread> pool;
-        std::exception_ptr       error;
-        for (unsigned t = 0; t < threads; ++t)
-          pool.emplace_back([&] {
-            for (std::size_t i; (i = next++) < todo.size();)
-              {
-                try
-                  {
-                    Evaluator ev{base, map, runs, todo[i], options};
-                    fitted[i] = fit(ev, predictions[i]);
-                  }
-                catch (...)
-                  {
-                    std::lock_guard lock(mutex);
-                    error = std::current_exception();
-                    continue;
-                  }
-                if (options.progress)
-                  {
-                    std::lock_guard lock(mutex);
-                    char            buf[256];
-                    std::snprintf(buf, sizeof buf, "%-18s BIC %.6g, held-out RMS %.4g, %d runs of the model, %.1f s",
-                                  fitted[i].effect.c_str(), fitted[i].bic, fitted[i].rms_heldout,
-                                  fitted[i].evaluations, fitted[i].wall_time_s);
-                    options.progress(buf);
-                  }
-              }
-          });
-        for (auto &t : pool)
-          t.join();
-        if (error)
-          std::rethrow_exception(error);
+        std::mutex                        mutex; // for the progress lines
+        parallel_for(todo.size(), cores, [&](std::size_t i) {
+          Evaluator ev{base, map, runs, todo[i], options};
+          fitted[i] = fit(ev, predictions[i]);
+          if (options.progress)
+            {
+              std::lock_guard lock(mutex);
+              char            buf[256];
+              std::snprintf(buf, sizeof buf, "%-18s BIC %.6g, held-out RMS %.4g, %d runs of the model, %.1f s",
+                            fitted[i].effect.c_str(), fitted[i].bic, fitted[i].rms_heldout,
+                            fitted[i].evaluations, fitted[i].wall_time_s);
+              options.progress(buf);
+            }
+        });
 
         const CandidateResult &none = fitted[0];
         double bic_min = 1e300;
