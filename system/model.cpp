@@ -1,7 +1,6 @@
 #include "system/model.h"
 
 #include <cmath>
-#include <numbers>
 
 #include "common/case_file.h"
 
@@ -110,6 +109,7 @@ namespace rectify::system
             {"chamber_capacitance_m3_per_Pa", C_ch},
             {"accumulator_capacitance_m3_per_Pa", C_acc},
             {"high_side_capacitance_m3_per_Pa", C_h},
+            {"outlet_line_node_capacitance_m3_per_Pa", C_node},
             {"low_side_capacitance_m3_per_Pa", C_l},
             {"line_resistance_Pa_s_per_m3", R3},
             {"bias_pressure_Pa", p_bias}};
@@ -278,7 +278,6 @@ namespace rectify::system
     f.p_inlet       = p_ch + f.R2 * f.q_inlet + K2 * f.q_inlet * std::abs(f.q_inlet);
     f.outlet_force  = c_.reed.area * (p_ch - f.p_outlet);
     f.inlet_force   = c_.reed.area * (f.p_inlet - p_ch);
-    f.K1            = K1;
     return f;
   }
 

@@ -135,7 +135,6 @@ namespace rectify::system
     double q_accumulator;          ///< junction -> accumulator
     double q_low;                  ///< junction -> low side
     double outlet_force, inlet_force; ///< opening pressure force on each reed [N]
-    double K1 = 0;                 ///< outlet valve's orifice coefficient [Pa s^2/m^6]
   };
 
   class Model : public OdeSystem
