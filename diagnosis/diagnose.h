@@ -15,7 +15,9 @@
 // Residual scale: each signal's expected noise, sd^2 = (white noise on the
 // measured signal, from its second differences)^2 + (the model's response to
 // the drive's own measurement noise)^2, the latter by simulating the model
-// once more with that much extra noise on the drive. The drive's noise
+// three more times with that much extra noise on the drive (the median of
+// the three; the drive is cleaned of its noise before it drives the model,
+// observation.h, and so is each shaken copy). The drive's noise
 // matters: the outlet valve opens by a small difference of two large
 // pressures in a no-flow run, so 0.3 % on the drive moves its opening by a
 // tenth of its swing. Residuals in these units are about 1 for a model that

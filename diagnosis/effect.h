@@ -25,9 +25,15 @@ namespace rectify::diagnosis
     double      lower = 0, upper = 0; ///< physical bounds of the fit
     bool        log_scale = true;     ///< fitted in log(value): bounds span decades
     std::string meaning;              ///< one line for reports
-    /// Start grid over this parameter (0: the workflow's, 9 points). Finer
-    /// for an effect whose residual has narrow basins (a ringing's phase).
+    /// Start grid over this parameter (0: the workflow's, 9 points).
     int grid_points = 0;
+    /// For a parameter that sets a lightly damped ringing: the frequency
+    /// [Hz] the model rings at for a value of the parameter (with the other
+    /// parameters `p`), decreasing in the value. The residual's dependence
+    /// on such a parameter is a comb of basins a few per cent wide (the
+    /// ringing's phase), which no coarse grid finds: the workflow starts
+    /// from the ringing frequency it measures in the residual (diagnose.cpp).
+    std::function<double(double value, const system::SystemParameters &p)> ringing_Hz;
 
     /// The middle of the bounds (geometric for log_scale): synth's default.
     double mid() const;

@@ -29,7 +29,9 @@ namespace rectify::diagnosis
     double                     duration_s() const { return time_s.back() - time_s.front(); }
 
     /// The pumping frequency from the drive: mean-crossings of the drive
-    /// (hysteresis 10 % of its range) over the record; throws InputError
+    /// (hysteresis 10 % of its range) over the record, refined by least
+    /// squares (the frequency of the Fourier series that fits the drive
+    /// best, measured_run.cpp); throws InputError
     /// (naming the file) if the drive shows fewer than two cycles.
     double drive_frequency_Hz() const;
 

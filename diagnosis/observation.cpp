@@ -1,10 +1,14 @@
 #include "diagnosis/observation.h"
 
 #include <cmath>
+#include <complex>
 #include <numbers>
 #include <random>
+#include <Eigen/Dense>
+#include <unsupported/Eigen/FFT>
 
 #include "common/case_file.h"
+#include "diagnosis/residuals.h"
 #include "system/simulation.h"
 
 namespace rectify::diagnosis
@@ -17,16 +21,27 @@ namespace rectify::diagnosis
     return columns;
   }
 
+  bool uniformly_sampled(const std::vector<double> &t)
+  {
+    const std::size_t n = t.size();
+    if (n < 2)
+      return false;
+    const double dt = (t.back() - t.front()) / static_cast<double>(n - 1);
+    for (std::size_t i = 1; i < n; ++i)
+      if (std::abs(t[i] - t[i - 1] - dt) > 0.01 * dt)
+        return false;
+    return true;
+  }
+
   std::vector<double> low_pass(const std::vector<double> &t, const std::vector<double> &v,
                                double cutoff_Hz)
   {
     const std::size_t n = v.size();
     if (n < 3)
       return v;
+    if (!uniformly_sampled(t))
+      return v; // left as measured
     const double dt = (t.back() - t.front()) / static_cast<double>(n - 1);
-    for (std::size_t i = 1; i < n; ++i)
-      if (std::abs(t[i] - t[i - 1] - dt) > 0.01 * dt)
-        return v; // not uniformly sampled: left as measured
     const double fc = cutoff_Hz * dt; // cycles per sample
     if (!(fc < 0.4))
       return v; // the cutoff is near Nyquist: nothing to remove
@@ -63,6 +78,75 @@ namespace rectify::diagnosis
     return out;
   }
 
+  std::vector<double> spectral_threshold(const std::vector<double> &t, const std::vector<double> &v,
+                                         double noise_sd)
+  {
+    const std::size_t n = v.size();
+    if (n < 8 || !(noise_sd > 0) || !uniformly_sampled(t))
+      return v;
+    // even extension of length m = 2 (n - 1): its DFT is real, the cosine
+    // series of the record; white noise of sd s gives each coefficient
+    // (but the first and the last) an sd of s sqrt(m)
+    const std::size_t   m = 2 * (n - 1);
+    std::vector<double> y(m);
+    for (std::size_t i = 0; i < n; ++i)
+      y[i] = v[i];
+    for (std::size_t i = 1; i + 1 < n; ++i)
+      y[m - i] = v[i];
+    Eigen::FFT<double>                fft;
+    std::vector<std::complex<double>> spectrum;
+    fft.fwd(spectrum, y);
+    const double threshold =
+      noise_sd * std::sqrt(static_cast<double>(m)) * std::sqrt(2.0 * std::log(static_cast<double>(n)));
+    for (std::size_t k = 1; k < spectrum.size(); ++k) // the mean is always kept
+      if (std::abs(spectrum[k]) < threshold)
+        spectrum[k] = 0.0;
+    std::vector<double> back;
+    fft.inv(back, spectrum);
+    back.resize(n);
+    return back;
+  }
+
+  std::vector<double> denoise_periodic(const std::vector<double> &t, const std::vector<double> &v,
+                                       double frequency_Hz, int max_harmonic, double noise_sd)
+  {
+    const std::size_t n = v.size();
+    if (n < 8 || !(noise_sd > 0) || !(frequency_Hz > 0) || max_harmonic < 1 || !uniformly_sampled(t))
+      return v;
+    const auto      columns = static_cast<Eigen::Index>(1 + 2 * max_harmonic);
+    Eigen::MatrixXd basis(static_cast<Eigen::Index>(n), columns);
+    Eigen::VectorXd b(static_cast<Eigen::Index>(n));
+    for (std::size_t i = 0; i < n; ++i)
+      {
+        const auto r = static_cast<Eigen::Index>(i);
+        basis(r, 0)  = 1.0;
+        for (int k = 1; k <= max_harmonic; ++k)
+          {
+            const double phase     = 2 * std::numbers::pi * k * frequency_Hz * (t[i] - t.front());
+            basis(r, 2 * k - 1)    = std::cos(phase);
+            basis(r, 2 * k)        = std::sin(phase);
+          }
+        b(r) = v[i];
+      }
+    Eigen::VectorXd c = basis.colPivHouseholderQr().solve(b);
+    // white noise gives each coefficient of a harmonic an sd of
+    // noise_sd sqrt(2 / n); its amplitude exceeds that times sqrt(2 ln n)
+    // with probability 1 / n
+    const double threshold = noise_sd * std::sqrt(2.0 / static_cast<double>(n)) *
+                             std::sqrt(2.0 * std::log(static_cast<double>(n)));
+    for (int k = 1; k <= max_harmonic; ++k)
+      if (std::hypot(c(2 * k - 1), c(2 * k)) < threshold)
+        c(2 * k - 1) = c(2 * k) = 0.0;
+    const Eigen::VectorXd periodic = basis * c;
+    std::vector<double>   rest(n);
+    for (std::size_t i = 0; i < n; ++i)
+      rest[i] = v[i] - periodic(static_cast<Eigen::Index>(i));
+    rest = spectral_threshold(t, rest, noise_sd);
+    for (std::size_t i = 0; i < n; ++i)
+      rest[i] += periodic(static_cast<Eigen::Index>(i));
+    return rest;
+  }
+
   system::Drive measured_drive(const MeasuredRun &run, double frequency_Hz,
                                double extra_noise_sd, unsigned long seed)
   {
@@ -78,7 +162,9 @@ namespace rectify::diagnosis
         for (double &x : raw)
           x += normal(rng);
       }
-    auto values = low_pass(t, raw, drive_cutoff_harmonic * frequency_Hz);
+    const int harmonics = static_cast<int>(drive_cutoff_harmonic);
+    auto values = low_pass(t, denoise_periodic(t, raw, frequency_Hz, harmonics, white_noise_sd(raw)),
+                           drive_cutoff_harmonic * frequency_Hz);
     return system::Drive::from_samples(std::move(t), std::move(values), frequency_Hz,
                                        column == "voltage_V", run.source);
   }

@@ -44,6 +44,9 @@ namespace rectify::diagnosis
   /// near 2.9 kHz) and put the noise's response into every residual.
   inline constexpr double drive_cutoff_harmonic = 10.0;
 
+  /// Whether the times are evenly spaced (to 1 % of their mean step).
+  bool uniformly_sampled(const std::vector<double> &times);
+
   /// Zero-phase windowed-sinc (Blackman) low-pass of uniformly sampled
   /// values (kernel +-3 cutoff periods, the record mirrored at its ends); returns
   /// the values unchanged if the sampling is not uniform or the cutoff is
@@ -51,8 +54,32 @@ namespace rectify::diagnosis
   std::vector<double> low_pass(const std::vector<double> &times, const std::vector<double> &values,
                                double cutoff_Hz);
 
-  /// The drive of `run` for the model (its time origin moved to 0, low-passed
-  /// at drive_cutoff_harmonic x the pumping frequency).
+  /// Spectral hard threshold (Donoho and Johnstone's universal threshold):
+  /// the cosine-series coefficients of uniformly sampled values (the record
+  /// mirrored at its ends) are kept where they stand above
+  /// noise_sd sqrt(2 ln n) in units of white noise of sd `noise_sd`, the rest
+  /// set to zero. Returns the values unchanged if the sampling is not uniform
+  /// or noise_sd is not positive.
+  std::vector<double> spectral_threshold(const std::vector<double> &times,
+                                         const std::vector<double> &values, double noise_sd);
+
+  /// A measured periodic drive without its noise: a least-squares Fourier
+  /// series in the harmonics of `frequency_Hz` up to `max_harmonic`, each
+  /// harmonic kept only if its amplitude stands above the universal
+  /// threshold for white noise of sd `noise_sd`, plus what is not periodic
+  /// in the record (a start, a drift) through spectral_threshold. Of the
+  /// noise only what falls on the kept harmonics is left (a few parts in
+  /// n), where a low-pass at the 10th harmonic keeps a tenth of its power
+  /// at 200 samples a cycle. Unchanged if not uniformly sampled or noise_sd
+  /// is not positive.
+  std::vector<double> denoise_periodic(const std::vector<double> &times,
+                                       const std::vector<double> &values, double frequency_Hz,
+                                       int max_harmonic, double noise_sd);
+
+  /// The drive of `run` for the model (its time origin moved to 0; its
+  /// measurement noise, estimated from its second differences, removed by
+  /// denoise_periodic; low-passed at drive_cutoff_harmonic x the pumping
+  /// frequency).
   system::Drive measured_drive(const MeasuredRun &run, double frequency_Hz,
                                double extra_noise_sd = 0, unsigned long seed = 1);
 

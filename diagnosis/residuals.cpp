@@ -4,6 +4,7 @@
 #include <cmath>
 #include <complex>
 #include <numbers>
+#include <unsupported/Eigen/FFT>
 
 #include "common/case_file.h"
 
@@ -92,6 +93,42 @@ namespace rectify::diagnosis
     for (double &x : d)
       x = std::abs(x - m);
     return 1.4826 * median(d) / std::sqrt(6.0);
+  }
+
+  double dominant_frequency(const std::vector<double> &t, const std::vector<double> &v,
+                            double f_low, double f_high)
+  {
+    const std::size_t n = v.size();
+    if (n < 16 || t.size() != n || !uniformly_sampled(t))
+      return 0.0;
+    const double dt = (t.back() - t.front()) / static_cast<double>(n - 1);
+    double mean = 0;
+    for (double x : v)
+      mean += x / static_cast<double>(n);
+    std::size_t m = 1;
+    while (m < 8 * n)
+      m *= 2;
+    std::vector<double> x(m, 0.0);
+    for (std::size_t i = 0; i < n; ++i)
+      x[i] = (v[i] - mean) * (0.5 - 0.5 * std::cos(2 * std::numbers::pi * static_cast<double>(i) /
+                                                    static_cast<double>(n - 1)));
+    Eigen::FFT<double>                fft;
+    std::vector<std::complex<double>> X;
+    fft.fwd(X, x);
+    const double df  = 1.0 / (static_cast<double>(m) * dt);
+    const auto   lo  = static_cast<std::size_t>(std::max(1.0, std::ceil(f_low / df)));
+    const auto   hi  = std::min(static_cast<std::size_t>(f_high / df), m / 2 - 1);
+    std::size_t  best = 0;
+    for (std::size_t k = lo; k <= hi; ++k)
+      if (best == 0 || std::abs(X[k]) > std::abs(X[best]))
+        best = k;
+    if (best == 0)
+      return 0.0;
+    const double a = std::log(std::abs(X[best - 1]) + 1e-300), b = std::log(std::abs(X[best]) + 1e-300),
+                 c = std::log(std::abs(X[best + 1]) + 1e-300);
+    const double denom = a - 2 * b + c;
+    const double shift = denom < 0 ? std::clamp(0.5 * (a - c) / denom, -0.5, 0.5) : 0.0;
+    return (static_cast<double>(best) + shift) * df;
   }
 
   SquaredResidual squared_residual(const MeasuredRun &run, const Signals &model,

@@ -25,6 +25,13 @@ namespace rectify::diagnosis
   /// noise), robustly: 1.4826 median|d - median d| / sqrt(6).
   double white_noise_sd(const std::vector<double> &values);
 
+  /// The frequency [Hz] of the largest spectral peak of uniformly sampled
+  /// values in [f_low, f_high] (Hann window, zero-padded to 8x, the peak
+  /// interpolated by a parabola through its log magnitudes): a ringing in a
+  /// residual. 0 if the record is too short or not uniformly sampled.
+  double dominant_frequency(const std::vector<double> &times, const std::vector<double> &values,
+                            double f_low_Hz, double f_high_Hz);
+
   /// Sum of squared normalised residuals over samples [from, to) of every
   /// signal in `model`, and the number of terms.
   struct SquaredResidual

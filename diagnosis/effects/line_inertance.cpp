@@ -1,5 +1,8 @@
 // line_inertance: the oil in the outlet line has mass; accelerating it takes a
 // pressure difference L dq/dt (L = rho l / A for a tube).
+#include <cmath>
+#include <numbers>
+
 #include "diagnosis/effect.h"
 
 namespace rectify::diagnosis
@@ -13,11 +16,18 @@ namespace rectify::diagnosis
       "the outlet flow lags the chamber: the outlet valve's pressure drop overshoots at each "
       "opening and the outlet pressure rings after each closing; grows with frequency",
       std::vector<EffectParameter>{{"lines", "outlet_inertance_Pa_s2_per_m3", 1e5, 1e9, true,
-                                    "inertance of the outlet line (rho l / A)",
-                                    // the outlet pressure rings at 1/(2 pi sqrt(L C)) after
-                                    // each closing; the ringing's phase makes the residual
-                                    // multimodal in L: start from 33 points (1.33x apart)
-                                    33}},
+                                    "inertance of the outlet line (rho l / A)", 0,
+                                    // with the outlet valve closed the line's oil swings
+                                    // between the node and the high side: the two
+                                    // compliances in series with L
+                                    [](double L, const system::SystemParameters &base) {
+                                      auto p = base;
+                                      p.lines.outlet_inertance_Pa_s2_per_m3 = L;
+                                      const system::ModelConstants c(p, system::Scenario::no_flow);
+                                      const double C_rest = c.C_h + c.C_seal;
+                                      const double C = c.C_node * C_rest / (c.C_node + C_rest);
+                                      return 1.0 / (2.0 * std::numbers::pi * std::sqrt(L * C));
+                                    }}},
       [](std::span<const double> v, system::SystemParameters &p) {
         p.lines.outlet_inertance_Pa_s2_per_m3 = v[0];
       });
