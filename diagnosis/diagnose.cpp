@@ -207,8 +207,9 @@ namespace rectify::diagnosis
     /// first 3 cycles of each run; (3) a scan of +-2 % in 0.5 % steps about
     /// the best over the first 6. Returns the best point of (3), with the
     /// force gain at 1, or an empty vector when the residual shows no
-    /// ringing in the parameter's range.
-    std::vector<double> ringing_start(const Evaluator &ev)
+    /// ringing in the parameter's range; counts its (short) runs of the
+    /// model into runs_of_the_model.
+    std::vector<double> ringing_start(const Evaluator &ev, int &runs_of_the_model)
     {
       const EffectParameter &par = ev.effect->parameters()[0];
       std::vector<double>    centres;
@@ -267,8 +268,8 @@ namespace rectify::diagnosis
           best_value = par.from_unit(o.best_u[0]);
         return o.evaluations;
       };
-      scan(3.0, 1.02, 12);
-      scan(6.0, 1.005, 4);
+      runs_of_the_model += scan(3.0, 1.02, 12);
+      runs_of_the_model += scan(6.0, 1.005, 4);
       std::vector<double> u(dim, 0.5);
       u[0] = par.to_unit(best_value);
       return u;
@@ -286,7 +287,13 @@ namespace rectify::diagnosis
       Objective o{&ev, 0, 0, 0, 1e300, {}};
       const unsigned dim = static_cast<unsigned>(ev.dimension());
       std::vector<double> u(dim, 0.5);
-      std::vector<std::pair<double, std::vector<double>>> grid;
+      struct Start
+      {
+        double              value; ///< the objective there
+        std::vector<double> u;
+        double              step;  ///< BOBYQA's first step from there
+      };
+      std::vector<Start> grid;
       const int grid_points = ev.effect && ev.effect->parameters()[0].grid_points > 0 ?
                                 ev.effect->parameters()[0].grid_points :
                                 ev.options.grid_points;
@@ -297,35 +304,26 @@ namespace rectify::diagnosis
         const double v = ringing->from_unit(at[0]);
         return std::abs(ringing->to_unit(std::min(ringing->upper, v * 1.0025)) - at[0]) + 1e-6;
       };
-      std::vector<double> start_step; // per grid point: BOBYQA's first step
+      const auto add_start = [&](const std::vector<double> &at, double step) {
+        grid.push_back({objective(dim, at.data(), nullptr, &o), at, step});
+      };
+      int short_runs = 0; // runs of the model over part of the record (ringing_start)
       if (from_point)
-        {
-          grid.emplace_back(objective(dim, from_point->data(), nullptr, &o), *from_point);
-          start_step.push_back(ringing ? fine_step(*from_point) : 0.02);
-        }
+        add_start(*from_point, ringing ? fine_step(*from_point) : 0.02);
       else if (ev.effect)
         {
           for (int g = 0; g < grid_points; ++g)
             {
               u[0] = (g + 0.5) / grid_points;
-              grid.emplace_back(objective(dim, u.data(), nullptr, &o), u);
-              start_step.push_back(0.5 / grid_points);
+              add_start(u, 0.5 / grid_points);
             }
           if (ringing)
-            if (const auto r = ringing_start(ev); !r.empty())
-              {
-                grid.emplace_back(objective(dim, r.data(), nullptr, &o), r);
-                start_step.push_back(fine_step(r));
-              }
+            if (const auto r = ringing_start(ev, short_runs); !r.empty())
+              add_start(r, fine_step(r));
         }
       else
-        {
-          grid.emplace_back(objective(dim, u.data(), nullptr, &o), u);
-          start_step.push_back(0.5 / grid_points);
-        }
-      for (std::size_t i = 0; i < grid.size(); ++i) // the step travels with its point
-        grid[i].second.push_back(start_step[i]);
-      std::sort(grid.begin(), grid.end(), [](const auto &a, const auto &b) { return a.first < b.first; });
+        add_start(u, 0.5 / grid_points);
+      std::sort(grid.begin(), grid.end(), [](const Start &a, const Start &b) { return a.value < b.value; });
       // BOBYQA from the best grid points (the residual of a valve that opens
       // by a small pressure difference can have several basins); each
       // restarted (smaller first step) from its best point while a restart
@@ -336,10 +334,9 @@ namespace rectify::diagnosis
       const std::size_t starts = std::min<std::size_t>(grid.size(), ev.effect ? 2 : 1);
       for (std::size_t start_i = 0; start_i < starts; ++start_i)
         {
-          std::vector<double> from   = grid[start_i].second;
-          double initial_step = from.back();
-          from.pop_back();
-          double              best_f = grid[start_i].first;
+          std::vector<double> from         = grid[start_i].u;
+          double              best_f       = grid[start_i].value;
+          double              initial_step = grid[start_i].step;
           for (int attempt = 0; attempt < 3; ++attempt)
             {
               std::vector<double> x = from;
@@ -374,7 +371,7 @@ namespace rectify::diagnosis
       c.values      = ev.values(x);
       c.force_gain  = ev.gain(x);
       c.k           = static_cast<int>(dim);
-      c.evaluations = o.evaluations;
+      c.evaluations = o.evaluations + short_runs;
       c.failed      = o.failures == o.evaluations;
       c.n_train     = o.n;
       c.ssr_train   = o.best * static_cast<double>(o.n);
