@@ -33,7 +33,7 @@ namespace rectify::diagnosis
     /// on such a parameter is a comb of basins a few per cent wide (the
     /// ringing's phase), which no coarse grid finds: the workflow starts
     /// from the ringing frequency it measures in the residual (diagnose.cpp).
-    std::function<double(double value, const system::SystemParameters &p)> ringing_Hz;
+    std::function<double(double value, const system::SystemParameters &p)> ringing_Hz = nullptr;
 
     /// The middle of the bounds (geometric for log_scale): synth's default.
     double mid() const;

@@ -83,6 +83,8 @@ namespace rectify::system
     // (R3 joining node and high side) is the thesis model again.
     C_node = L_line > 0 ? 0.1 * C_h : 0.0;
     C_h -= C_node;
+    V_node = L_line > 0 ? 0.1 * V_h : 0.0; // its oil, for the free air it holds
+    V_h -= V_node;
     coil_dynamics  = p.drive.coil_dynamics == "on";
     R_coil         = p.transducer.coil_resistance_ohm;
     L_coil         = p.transducer.coil_inductance_H;
@@ -163,7 +165,7 @@ namespace rectify::system
   double Model::stored_volume(int node, double p) const
   {
     if (node == 3) // the node between the outlet valve and an inertial line
-      return c_.C_node * p;
+      return c_.C_node * p + c_.V_node * c_.fluid.free_air_volume_change_per_volume(p);
     const double V = node == 0 ? c_.V_ch : node == 1 ? c_.V_h : c_.V_l;
     const double C = node == 0 ? c_.C_ch : node == 1 ? c_.C_h + c_.C_seal : c_.C_l;
     return C * p + V * c_.fluid.free_air_volume_change_per_volume(p);
@@ -340,7 +342,10 @@ namespace rectify::system
     // Outlet-line inertance: L q_line' = p_node - p_h - R3 q_line, the node
     // between valve and line filled by the valve: C_node p_node' = q_outlet - q_line.
     ydot[line_flow]   = c_.L_line > 0 ? (y[line_node_p] - y[high_p] - c_.R3 * f.q_line) / c_.L_line : 0.0;
-    ydot[line_node_p] = c_.L_line > 0 ? (f.q_outlet - f.q_line) / c_.C_node : 0.0;
+    ydot[line_node_p] = c_.L_line > 0 ? (f.q_outlet - f.q_line) /
+                                          (c_.C_node + c_.V_node * c_.fluid.free_air_compliance_per_volume(
+                                                                     y[line_node_p])) :
+                                        0.0;
     ydot[coil_current] = drive_.is_voltage() && c_.coil_dynamics ?
                            (drive_.value(t) - c_.R_coil * y[coil_current]) / c_.L_coil :
                            0.0;

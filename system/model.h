@@ -113,6 +113,7 @@ namespace rectify::system
     double orifice_factor;         ///< rho / (2 Cd^2 P^2): orifice K = factor / x^2
     double L_line;                 ///< outlet-line inertance
     double C_node;                 ///< oil between the outlet valve and the line (with L_line)
+    double V_node;                 ///< its volume (a tenth of the high side's, taken from V_h)
     bool   coil_dynamics;          ///< integrate the coil current (voltage drive)
     double R_coil, L_coil;
     double F_coulomb, v_friction;  ///< output-piston friction F_c tanh(v / v_s)

@@ -228,6 +228,24 @@ TEST(Effects, InertialLineFeedsTheHighSideThroughItsOwnNode)
   EXPECT_NEAR(ydot[state::line_flow], (0.9e6 - 0.4e6 - c.R3 * 1e-6) / 1.12e8, 1e-12);
   EXPECT_NEAR(ydot[state::high_p], 1e-6 / c.C_h, 1e-9 / c.C_h);
 
+  // With free air the node's oil (a tenth of the high side's) holds its
+  // share of it: the node's compliance is C_node + V_node c_air(p_node).
+  auto pa                    = p;
+  pa.fluid.free_air_fraction = 0.01;
+  Model ma                   = make(pa, Scenario::no_flow, 150);
+  ma.set_closed(0, false);
+  const auto  &ca   = ma.constants();
+  const double V_h0 = make(reference(), Scenario::no_flow, 150).constants().V_h;
+  EXPECT_NEAR(ca.V_node, 0.1 * V_h0, 1e-12 * V_h0);
+  EXPECT_NEAR(ca.V_h, 0.9 * V_h0, 1e-12 * V_h0);
+  m.rhs(0.0, y, ydot);
+  std::vector<double> ydot_air(ma.n_states());
+  ma.rhs(0.0, y, ydot_air);
+  const double C_air = ca.C_node + ca.V_node * pa.fluid.free_air_compliance_per_volume(0.9e6);
+  EXPECT_NEAR(ydot_air[state::line_node_p], (ma.flows(y).q_outlet - 1e-6) / C_air,
+              1e-9 * std::abs((ma.flows(y).q_outlet - 1e-6) / C_air));
+  EXPECT_LT(ydot_air[state::line_node_p], 0.9 * ydot[state::line_node_p]); // the air softens it
+
   // A reed closing on the flowing line: the first version (valve and line in
   // one branch, no node) spiked the outlet pressure to 3.9 GPa at t = 64 ms
   // in `rectify synth` of this case, 500x the chamber's peak. With the node
