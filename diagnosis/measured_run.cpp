@@ -1,15 +1,14 @@
 #include "diagnosis/measured_run.h"
 
-#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 #include <fstream>
 #include <regex>
 #include <sstream>
 
 #include "common/case_file.h"
 #include "common/io.h"
+#include "diagnosis/fourier.h"
 
 namespace rectify::diagnosis
 {
@@ -76,23 +75,10 @@ namespace rectify::diagnosis
     // harmonics) leaves the smallest residual, by golden section within
     // +-0.5 / (cycles recorded) of the crossings' estimate (inside the
     // residual's main lobe).
-    const double t0 = time_s.front(), duration = time_s.back() - t0;
-    const auto   misfit = [&](double f) {
-      constexpr int   K = 5;
-      Eigen::MatrixXd A(static_cast<Eigen::Index>(u.size()), 2 * K + 1);
-      Eigen::VectorXd b(static_cast<Eigen::Index>(u.size()));
-      for (std::size_t i = 0; i < u.size(); ++i)
-        {
-          const auto r = static_cast<Eigen::Index>(i);
-          A(r, 0)      = 1.0;
-          for (int k = 1; k <= K; ++k)
-            {
-              const double phase = 2 * std::numbers::pi * k * f * (time_s[i] - t0);
-              A(r, 2 * k - 1)    = std::cos(phase);
-              A(r, 2 * k)        = std::sin(phase);
-            }
-          b(r) = u[i];
-        }
+    const double duration = time_s.back() - time_s.front();
+    const Eigen::Map<const Eigen::VectorXd> b(u.data(), static_cast<Eigen::Index>(u.size()));
+    const auto misfit = [&](double f) {
+      const Eigen::MatrixXd A = fourier_basis(time_s, f, 5);
       const Eigen::VectorXd c = (A.transpose() * A).ldlt().solve(A.transpose() * b);
       return (A * c - b).squaredNorm();
     };

@@ -4,10 +4,10 @@
 #include <complex>
 #include <numbers>
 #include <random>
-#include <Eigen/Dense>
 #include <unsupported/Eigen/FFT>
 
 #include "common/case_file.h"
+#include "diagnosis/fourier.h"
 #include "diagnosis/residuals.h"
 #include "system/simulation.h"
 
@@ -113,21 +113,8 @@ namespace rectify::diagnosis
     const std::size_t n = v.size();
     if (n < 8 || !(noise_sd > 0) || !(frequency_Hz > 0) || max_harmonic < 1 || !uniformly_sampled(t))
       return v;
-    const auto      columns = static_cast<Eigen::Index>(1 + 2 * max_harmonic);
-    Eigen::MatrixXd basis(static_cast<Eigen::Index>(n), columns);
-    Eigen::VectorXd b(static_cast<Eigen::Index>(n));
-    for (std::size_t i = 0; i < n; ++i)
-      {
-        const auto r = static_cast<Eigen::Index>(i);
-        basis(r, 0)  = 1.0;
-        for (int k = 1; k <= max_harmonic; ++k)
-          {
-            const double phase     = 2 * std::numbers::pi * k * frequency_Hz * (t[i] - t.front());
-            basis(r, 2 * k - 1)    = std::cos(phase);
-            basis(r, 2 * k)        = std::sin(phase);
-          }
-        b(r) = v[i];
-      }
+    const Eigen::MatrixXd basis = fourier_basis(t, frequency_Hz, max_harmonic);
+    const Eigen::Map<const Eigen::VectorXd> b(v.data(), static_cast<Eigen::Index>(n));
     Eigen::VectorXd c = basis.colPivHouseholderQr().solve(b);
     // white noise gives each coefficient of a harmonic an sd of
     // noise_sd sqrt(2 / n); its amplitude exceeds that times sqrt(2 ln n)
