@@ -480,6 +480,32 @@ TEST(Diagnosis, BadDataAndBadOptionsStopBeforeWritingAnything)
   EXPECT_FALSE(std::filesystem::exists(dir / "s"));
 }
 
+namespace
+{
+  /// `rectify synth SYNTH_ARGS` into a scratch folder, then `rectify diagnose`
+  /// of its data with `--effects EFFECTS`: the diagnosis's summary.json (null,
+  /// with the command's output as a failure, if either command fails).
+  nlohmann::json synth_then_diagnose(const std::string &name, const std::string &synth_args,
+                                     const std::string &effects)
+  {
+    const auto dir = scratch(name);
+    auto       r   = rectify_cli("synth " + synth_args + " --out " + (dir / "data").string());
+    if (r.exit_code != 0)
+      {
+        ADD_FAILURE() << r.output;
+        return {};
+      }
+    r = rectify_cli("diagnose --data " + (dir / "data" / "data.csv").string() + " --effects " + effects +
+                    " --out " + (dir / "d").string());
+    if (r.exit_code != 0)
+      {
+        ADD_FAILURE() << r.output;
+        return {};
+      }
+    return nlohmann::json::parse(std::ifstream(dir / "d" / "summary.json"));
+  }
+} // namespace
+
 // An inertial outlet line rings after each closing of the outlet valve,
 // nearly undamped: the residual's dependence on L is a comb of basins about
 // +-1 % wide over 12 cycles, which no coarse grid finds. The fit starts from
@@ -488,15 +514,10 @@ TEST(Diagnosis, BadDataAndBadOptionsStopBeforeWritingAnything)
 // grid) the same data gave "none" (residual 10.0 -> 9.3 noise units).
 TEST(Diagnosis, InertialLineIsFoundFromItsRinging)
 {
-  const auto dir = scratch("diagnose_line");
-  auto       r   = rectify_cli("synth --effect line_inertance --param outlet_inertance_Pa_s2_per_m3=1.12e8 "
-                               "--noise 0.0186 --seed 1001 --frequency 100 --cycles 12 --out " +
-                               (dir / "line").string());
-  ASSERT_EQ(r.exit_code, 0) << r.output;
-  r = rectify_cli("diagnose --data " + (dir / "line" / "data.csv").string() +
-                  " --effects line_inertance valve_leakage --out " + (dir / "d").string());
-  ASSERT_EQ(r.exit_code, 0) << r.output;
-  const auto s = nlohmann::json::parse(std::ifstream(dir / "d" / "summary.json"));
+  auto s = synth_then_diagnose("diagnose_line",
+                               "--effect line_inertance --param outlet_inertance_Pa_s2_per_m3=1.12e8 "
+                               "--noise 0.0186 --seed 1001 --frequency 100 --cycles 12",
+                               "line_inertance valve_leakage");
   ASSERT_EQ(s["effect"], "line_inertance") << s["decision"];
   EXPECT_NEAR(s["parameters"]["outlet_inertance_Pa_s2_per_m3"].get<double>(), 1.12e8, 0.01 * 1.12e8);
   EXPECT_GT(s["residual_shrink"].get<double>(), 0.8);
@@ -511,15 +532,10 @@ TEST(Diagnosis, InertialLineIsFoundFromItsRinging)
 // noise.
 TEST(Diagnosis, SoftSealIsRecoveredAfterRescalingTheResidualWithTheFittedModel)
 {
-  const auto dir = scratch("diagnose_seal");
-  auto       r   = rectify_cli("synth --effect outlet_compliance --param seal_compliance_m3_per_Pa=4.076e-11 "
-                               "--noise 0.02 --seed 1013 --frequency 50 --cycles 16 --out " +
-                               (dir / "seal").string());
-  ASSERT_EQ(r.exit_code, 0) << r.output;
-  r = rectify_cli("diagnose --data " + (dir / "seal" / "data.csv").string() +
-                  " --effects outlet_compliance --out " + (dir / "d").string());
-  ASSERT_EQ(r.exit_code, 0) << r.output;
-  const auto s = nlohmann::json::parse(std::ifstream(dir / "d" / "summary.json"));
+  auto s = synth_then_diagnose("diagnose_seal",
+                               "--effect outlet_compliance --param seal_compliance_m3_per_Pa=4.076e-11 "
+                               "--noise 0.02 --seed 1013 --frequency 50 --cycles 16",
+                               "outlet_compliance");
   ASSERT_EQ(s["effect"], "outlet_compliance") << s["decision"];
   EXPECT_NEAR(s["parameters"]["seal_compliance_m3_per_Pa"].get<double>(), 4.076e-11, 0.1 * 4.076e-11);
   EXPECT_GE(s["rounds"][0]["refits_with_rescaled_residuals"].get<int>(), 1);
