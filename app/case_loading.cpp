@@ -3,14 +3,23 @@
 #include "mesher/parameters.h"
 #include "stiffness_solver/parameters.h"
 #include "stokes_solver/parameters.h"
+#include "stokes_solver/resistance_sweep.h"
 #include "system/parameters.h"
 
 namespace rectify::app
 {
-  CaseFile load_case(const std::filesystem::path &path)
+  CaseFile load_case(const std::filesystem::path &path, bool read_map_sets)
   {
     CaseFile file = CaseFile::load(path);
-    (void)system::SystemParameters::from_case(file);
+    if (read_map_sets)
+      (void)system::SystemParameters::from_case(file);
+    else
+      {
+      // The system's tables without opening the map sets (`design` may be
+      // about to write the very map set the case names).
+      (void)system::SystemParameters::from_case(file, false);
+      }
+    (void)stokes::SweepSettings::from_case(file);
     (void)stiffness::StiffnessParameters::from_case(file);
     (void)mesher::MeshParameters::from_case(file);
     (void)stokes::FlowParameters::from_case(file);

@@ -9,5 +9,6 @@
 
 namespace rectify::app
 {
-  CaseFile load_case(const std::filesystem::path &path);
+  /// `read_map_sets` false: the system's map sets are not opened (nor checked).
+  CaseFile load_case(const std::filesystem::path &path, bool read_map_sets = true);
 } // namespace rectify::app

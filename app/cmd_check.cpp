@@ -1,6 +1,7 @@
 // `rectify check`: reads a case file as every stage does, reports every
 // parameter (given or default) and the derived model constants, and exits
 // non-zero on the first problem. For editing a case before a long run.
+#include <algorithm>
 #include <cstdio>
 
 #include "app/commands.h"
@@ -27,8 +28,18 @@ namespace rectify::app
       const auto     st   = stiffness::StiffnessParameters::from_case(file);
       const auto     mesh = mesher::MeshParameters::from_case(file);
       const auto     flow = stokes::FlowParameters::from_case(file);
-      const auto     map  = maps::ResistanceMap::read(sys.valves.resistance_map,
-                                                      maps::parse_interpolation(sys.valves.interpolation));
+      const auto     valves = system::load_valve_maps(sys);
+      nlohmann::json valve_maps = nlohmann::json::array();
+      for (const auto &v : valves)
+        valve_maps.push_back({{"map_set", v.name()},
+                              {"n_nodes", v.resistance().openings().size()},
+                              {"interpolation", maps::to_string(v.resistance().interpolation())},
+                              {"closed_R_Pa_s_per_m3", v.resistance().closed_resistance()},
+                              {"max_opening_m", v.resistance().max_opening()},
+                              {"seated_area_m2", v.seated_area_m2()},
+                              {"A_eff_range_m2", {*std::min_element(v.area().areas().begin(), v.area().areas().end()),
+                                                  *std::max_element(v.area().areas().begin(), v.area().areas().end())}},
+                              {"reed", v.reed() ? v.reed()->to_json() : nlohmann::json(nullptr)}});
       const nlohmann::json summary = {
         {"command", "check"},
         {"rectify_version", RECTIFY_VERSION},
@@ -36,9 +47,7 @@ namespace rectify::app
         {"valid", true},
         {"system", sys.to_json()},
         {"model_constants_loaded", system::ModelConstants(sys, system::Scenario::loaded).to_json()},
-        {"resistance_map", {{"file", map.name()}, {"n_nodes", map.openings().size()},
-                            {"closed_R_Pa_s_per_m3", map.closed_resistance()},
-                            {"max_opening_m", map.max_opening()}}},
+        {"valve_maps", {{"outlet", valve_maps[0]}, {"inlet", valve_maps[1]}}},
         {"geometry",
          {{"reed_length_m", st.geometry.reed_length_m},
           {"reed_width_m", st.geometry.reed_width_m},

@@ -21,10 +21,9 @@ namespace rectify::app
 {
   namespace
   {
-    maps::ResistanceMap load_resistance_map(const system::SystemParameters &p)
+    system::ValveMaps load_resistance_map(const system::SystemParameters &p)
     {
-      return maps::ResistanceMap::read(p.valves.resistance_map,
-                                       maps::parse_interpolation(p.valves.interpolation));
+      return system::load_valve_maps(p);
     }
 
     // ------------------------------------------------------------------ synth

@@ -4,7 +4,9 @@
 #include "app/commands.h"
 #include "common/io.h"
 #include "common/plot.h"
+#include "maps/map_set.h"
 #include "maps/resistance_map.h"
+#include "system/parameters.h"
 
 namespace rectify::app
 {
@@ -19,13 +21,15 @@ namespace rectify::app
 
     void map_thesis(const MapThesisOptions &o)
     {
-      (void)load_case(o.case_path);
+      const CaseFile file = load_case(o.case_path);
       if (o.n < 2)
         throw InputError("--n " + std::to_string(o.n) + ": need at least 2 samples");
       const auto map = maps::thesis_resistance_map(o.n);
+      const auto sys = system::SystemParameters::from_case(file);
       const std::filesystem::path out(o.out_dir);
       ensure_directory(out);
-      map.write(out / "resistance-map.csv");
+      // As a map set: the thesis's R(x) with the constant force area A_r.
+      maps::map_set_from_resistance(map, sys.reed.pressure_area_m2).write(out);
       // Plot from 1 um up (log axes), without the closed-valve node at x = 0.
       CsvTable t({"opening_um", "R_Pa_s_per_m3"});
       for (std::size_t i = 1; i < map.openings().size(); ++i)
@@ -47,9 +51,10 @@ namespace rectify::app
                   {"opening_m", map.openings()},
                   {"R_Pa_s_per_m3", map.resistances()},
                   {"metadata", map.metadata()},
-                  {"files", {"resistance-map.csv", plotted ? "resistance-map.png" : ""}}});
-      std::printf("wrote %s (%zu nodes)\n", (out / "resistance-map.csv").c_str(),
-                  map.openings().size());
+                  {"A_eff_m2", sys.reed.pressure_area_m2},
+                  {"files", {"manifest.json", "resistance.csv", "area.csv", plotted ? "resistance-map.png" : ""}}});
+      std::printf("wrote the map set %s (R(x) at %zu nodes, A_eff = A_r = %s m^2)\n", out.c_str(),
+                  map.openings().size(), format_number(sys.reed.pressure_area_m2).c_str());
     }
   } // namespace
 
@@ -58,7 +63,8 @@ namespace rectify::app
     auto  o   = std::make_shared<MapThesisOptions>();
     auto *cmd = app.add_subcommand(
       "map-thesis",
-      "Write the thesis's R(x) (eq. 3.40, floor and closed value of sec. 3.2.4) as a map file.");
+      "Write the thesis's valve as a map set: R(x) of eq. 3.40 (floor and closed value of sec. 3.2.4)\n"
+      "and the constant force area A_r ([reed] pressure_area_m2).");
     add_case_and_out(*cmd, o->case_path, o->out_dir);
     cmd->add_option("--n", o->n, "samples from 2 to 1210 um, log-spaced")->capture_default_str();
     cmd->callback([o]() { map_thesis(*o); });

@@ -27,6 +27,7 @@ namespace rectify::app
       double      current_bias_A = std::nan("");
       double      rtol           = std::nan("");
       bool        fd_jacobian    = false;
+      std::string map_set;
 
       void add_to(CLI::App &cmd)
       {
@@ -43,12 +44,17 @@ namespace rectify::app
         cmd.add_option("--rtol", rtol, "CVODE relative tolerance (default: case [solver])");
         cmd.add_flag("--fd-jacobian", fd_jacobian,
                      "finite-difference Jacobian instead of the analytic one (cross-check)");
+        cmd.add_option("--map-set", map_set,
+                       "both valves from this map set (`rectify design`): R(x), A_eff(x), k_r, m_r; "
+                       "wins over the case's [valves] and [reed] values");
       }
 
       /// Parameters with the command-line overrides applied.
       system::SystemParameters parameters(const CaseFile &file) const
       {
         auto p = system::SystemParameters::from_case(file);
+        if (!map_set.empty())
+          system::use_map_set(p, file, map_set);
         if (!std::isnan(current_pp_A))
           p.drive.current_pp_A = current_pp_A;
         if (!std::isnan(current_bias_A))
@@ -79,10 +85,9 @@ namespace rectify::app
       }
     };
 
-    maps::ResistanceMap load_map(const system::SystemParameters &p)
+    system::ValveMaps load_map(const system::SystemParameters &p)
     {
-      return maps::ResistanceMap::read(p.valves.resistance_map,
-                                       maps::parse_interpolation(p.valves.interpolation));
+      return system::load_valve_maps(p);
     }
 
     system::Drive make_drive(const system::SystemParameters &p, double frequency)
@@ -117,7 +122,8 @@ namespace rectify::app
                                       format_number(p.drive.current_pp_A) + " A p-p, " +
                                         format_number(p.drive.current_bias_A) + " A bias" :
                                       p.drive.waveform},
-                        {"resistance map", p.valves.resistance_map},
+                        {"valves", p.valves.map_set[0].empty() ? "R(x) " + p.valves.resistance_map + ", A_r" : "map set " + p.valves.map_set[0] + (p.valves.map_set[1] != p.valves.map_set[0] ? " / " + p.valves.map_set[1] : std::string())},
+                        {"reed", "k_r " + format_number(p.reed.stiffness_N_per_m) + " N/m, m_r " + format_number(p.reed.effective_mass_kg) + " kg (" + p.reed.source + ")"},
                         {"rtol", format_number(p.solver.relative_tolerance)},
                         {"jacobian", p.solver.jacobian},
                         {"out", o.out_dir}});

@@ -38,6 +38,9 @@ namespace rectify::app
   /// `synth`, `diagnose` (diagnosis/).
   void register_diagnosis_commands(CLI::App &app);
 
+  /// `design` (design/): the map set of a valve.
+  void register_design_commands(CLI::App &app);
+
   /// `map-thesis` (maps/).
   void register_map_commands(CLI::App &app);
 } // namespace rectify::app

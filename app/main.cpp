@@ -25,6 +25,7 @@ int main(int argc, char **argv)
   rectify::app::register_map_commands(app);
   rectify::app::register_mesh_commands(app);
   rectify::app::register_stokes_commands(app);
+  rectify::app::register_design_commands(app);
   rectify::app::register_stiffness_commands(app);
   rectify::app::register_diagnosis_commands(app);
   try

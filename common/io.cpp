@@ -1,6 +1,7 @@
 #include "common/io.h"
 
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
@@ -48,6 +49,29 @@ namespace rectify
     if (ec || !std::filesystem::is_directory(dir))
       throw InputError("cannot create output folder '" + dir.string() + "'" +
                        (ec ? ": " + ec.message() : ""));
+  }
+
+  std::string content_hash(const std::string &content)
+  {
+    std::uint64_t h = 14695981039346656037ull; // FNV-1a, 64 bits
+    for (const unsigned char c : content)
+      {
+        h ^= c;
+        h *= 1099511628211ull;
+      }
+    char buf[17];
+    std::snprintf(buf, sizeof(buf), "%016llx", static_cast<unsigned long long>(h));
+    return buf;
+  }
+
+  std::string file_hash(const std::filesystem::path &path)
+  {
+    std::ifstream in(path, std::ios::binary);
+    if (!in)
+      throw InputError("cannot read '" + path.string() + "'");
+    std::ostringstream s;
+    s << in.rdbuf();
+    return content_hash(s.str());
   }
 
   CsvTable::CsvTable(std::vector<std::string> column_names)

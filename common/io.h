@@ -19,6 +19,12 @@ namespace rectify
   /// Creates the output folder (and parents); a clear error if it cannot.
   void ensure_directory(const std::filesystem::path &dir);
 
+  /// A 64-bit FNV-1a hash of `content`, as 16 hex digits: detects a changed
+  /// table or setting (provenance), not a tampered one.
+  std::string content_hash(const std::string &content);
+  /// content_hash of a file's bytes; InputError naming the file if it cannot be read.
+  std::string file_hash(const std::filesystem::path &path);
+
   /// One CSV row: the values at full precision (%.17g), comma-separated, no newline.
   std::string csv_row(std::span<const double> values);
 

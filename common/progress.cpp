@@ -27,9 +27,14 @@ namespace rectify
     const double elapsed =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
     const double per_item = elapsed / static_cast<double>(n_done_ - n_done_at_start_);
-    const double left     = per_item * static_cast<double>(n_total_ - n_done_);
+    const double left     = per_item * static_cast<double>(n_total_ > n_done_ ? n_total_ - n_done_ : 0);
     std::fprintf(stderr, "%s [%zu/%zu] %s  (elapsed %.1f s, about %.0f s left)\n",
                  label_.c_str(), n_done_, n_total_, what.c_str(), elapsed, left);
     std::fflush(stderr);
+  }
+  void Progress::extend(std::size_t more)
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    n_total_ += more;
   }
 } // namespace rectify

@@ -15,6 +15,8 @@ namespace rectify
              bool quiet = false);
     /// One item finished; `what` describes it ("1200 Hz: 0.41 s").
     void step(const std::string &what);
+    /// `more` items were added to the run (adaptive runs learn their size as they go).
+    void extend(std::size_t more);
 
   private:
     std::mutex                            mutex_;

@@ -62,7 +62,7 @@ namespace rectify::diagnosis
     struct Evaluator
     {
       const system::SystemParameters &base;
-      const maps::ResistanceMap      &map;
+      const system::ValveMaps        &map;
       const std::vector<RunCase>     &runs;
       const Effect                   *effect; // null: none
       const DiagnoseOptions          &options;
@@ -165,7 +165,7 @@ namespace rectify::diagnosis
     }
 
     std::vector<Signals> simulate_all(const system::SystemParameters &p,
-                                      const maps::ResistanceMap &map,
+                                      const system::ValveMaps &map,
                                       const std::vector<RunCase> &runs, double rtol, unsigned threads = 1)
     {
       std::vector<Signals> out(runs.size());
@@ -428,7 +428,7 @@ namespace rectify::diagnosis
     return rc;
   }
 
-  void calibrate_noise(const system::SystemParameters &base, const maps::ResistanceMap &map,
+  void calibrate_noise(const system::SystemParameters &base, const system::ValveMaps &map,
                        std::vector<RunCase> &runs, double rtol, unsigned threads)
   {
     // The model's response to the drive's noise, from three realisations
@@ -475,7 +475,7 @@ namespace rectify::diagnosis
       }
   }
 
-  DiagnosisResult diagnose(const system::SystemParameters &base_in, const maps::ResistanceMap &map,
+  DiagnosisResult diagnose(const system::SystemParameters &base_in, const system::ValveMaps &map,
                            std::vector<RunCase> runs, const DiagnoseOptions &options)
   {
     const auto start = Clock::now();

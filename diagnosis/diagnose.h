@@ -126,11 +126,11 @@ namespace rectify::diagnosis
 
   /// Sets each run's residual scales (noise) with the model `base`, the
   /// runs simulated `threads` at once.
-  void calibrate_noise(const system::SystemParameters &base, const maps::ResistanceMap &map,
+  void calibrate_noise(const system::SystemParameters &base, const system::ValveMaps &map,
                        std::vector<RunCase> &runs, double relative_tolerance, unsigned threads = 1);
 
   /// Calibrates the runs' noise (calibrate_noise) and runs the workflow.
-  DiagnosisResult diagnose(const system::SystemParameters &base, const maps::ResistanceMap &map,
+  DiagnosisResult diagnose(const system::SystemParameters &base, const system::ValveMaps &map,
                            std::vector<RunCase> runs, const DiagnoseOptions &options);
 
   /// summary.json's content.

@@ -156,7 +156,7 @@ namespace rectify::diagnosis
                                        column == "voltage_V", run.source);
   }
 
-  Signals simulate_drive(const system::SystemParameters &p, const maps::ResistanceMap &map,
+  Signals simulate_drive(const system::SystemParameters &p, const system::ValveMaps &map,
                          const system::Drive &drive, system::Scenario scenario,
                          const std::vector<double> &times, double relative_tolerance)
   {
@@ -197,7 +197,7 @@ namespace rectify::diagnosis
     return out;
   }
 
-  Signals simulate_run(const system::SystemParameters &p, const maps::ResistanceMap &map,
+  Signals simulate_run(const system::SystemParameters &p, const system::ValveMaps &map,
                        const MeasuredRun &run, const RunSetup &setup,
                        const SimulationOptions &options)
   {

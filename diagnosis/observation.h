@@ -86,13 +86,13 @@ namespace rectify::diagnosis
   /// Simulates `run` with parameters `p` and returns every signal of
   /// signal_columns() that the run has, at its sample times. Throws
   /// std::runtime_error if the integrator fails.
-  Signals simulate_run(const system::SystemParameters &p, const maps::ResistanceMap &map,
+  Signals simulate_run(const system::SystemParameters &p, const system::ValveMaps &map,
                        const MeasuredRun &run, const RunSetup &setup,
                        const SimulationOptions &options = {});
 
   /// The same from a drive and times directly (the synthesiser), every
   /// signal of signal_columns() (actuator signals only when loaded).
-  Signals simulate_drive(const system::SystemParameters &p, const maps::ResistanceMap &map,
+  Signals simulate_drive(const system::SystemParameters &p, const system::ValveMaps &map,
                          const system::Drive &drive, system::Scenario scenario,
                          const std::vector<double> &times, double relative_tolerance);
 } // namespace rectify::diagnosis

@@ -9,7 +9,7 @@
 
 namespace rectify::diagnosis
 {
-  SynthResult synthesise(const system::SystemParameters &base, const maps::ResistanceMap &map,
+  SynthResult synthesise(const system::SystemParameters &base, const system::ValveMaps &map,
                          const SynthOptions &o)
   {
     if (!(o.noise >= 0 && o.noise < 1))

@@ -41,6 +41,6 @@ namespace rectify::diagnosis
 
   /// Throws InputError for an unknown effect or parameter key, or a value
   /// outside the effect's bounds.
-  SynthResult synthesise(const system::SystemParameters &base, const maps::ResistanceMap &map,
+  SynthResult synthesise(const system::SystemParameters &base, const system::ValveMaps &map,
                          const SynthOptions &options);
 } // namespace rectify::diagnosis

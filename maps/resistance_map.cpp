@@ -17,8 +17,26 @@ namespace rectify::maps
       return Interpolation::log_linear;
     if (name == "linear")
       return Interpolation::linear;
+    if (name == "log-log")
+      return Interpolation::log_log;
     throw InputError("unknown interpolation '" + name +
-                     "' (monotone-cubic, log-linear or linear)");
+                     "' (monotone-cubic, log-linear, linear or log-log)");
+  }
+
+  std::string to_string(Interpolation interpolation)
+  {
+    switch (interpolation)
+      {
+        case Interpolation::monotone_cubic:
+          return "monotone-cubic";
+        case Interpolation::log_linear:
+          return "log-linear";
+        case Interpolation::linear:
+          return "linear";
+        case Interpolation::log_log:
+          return "log-log";
+      }
+    return "?";
   }
 
   OutOfRange parse_out_of_range(const std::string &name)
@@ -89,6 +107,16 @@ namespace rectify::maps
         const double w1 = 2 * h1 + h0, w2 = h1 + 2 * h0;
         log_slope_[i]   = (w1 + w2) / (w1 / secant[i - 1] + w2 / secant[i]);
       }
+    if (interpolation_ == Interpolation::log_log)
+      {
+        if (n < 3)
+          throw InputError(where + ": log-log interpolation needs at least two open nodes (x > 0)");
+        std::vector<double> log_x(n - 1), log_r(n - 1);
+        for (std::size_t i = 1; i < n; ++i)
+          log_x[i - 1] = std::log(opening_[i]), log_r[i - 1] = log_resistance_[i];
+        log_log_        = MonotoneCubic(log_x, log_r);
+        first_exponent_ = (log_r[1] - log_r[0]) / (log_x[1] - log_x[0]);
+      }
   }
 
   ResistanceMap::Value ResistanceMap::evaluate(double x) const
@@ -97,6 +125,19 @@ namespace rectify::maps
       return {resistance_.front(), 0.0, false};
     if (x >= opening_.back()) // held beyond the table: dR/dx may jump here
       return {resistance_.back(), 0.0, x > opening_.back()};
+    if (interpolation_ == Interpolation::log_log)
+      {
+        if (x < opening_[1]) // the first interval's power law, up to the closed value
+          {
+            const double r = resistance_[1] * std::pow(x / opening_[1], first_exponent_);
+            if (r >= resistance_.front())
+              return {resistance_.front(), 0.0, false};
+            return {r, r * first_exponent_ / x, false};
+          }
+        const auto   v = log_log_.evaluate(std::log(x));
+        const double r = std::exp(v.value);
+        return {r, r * v.derivative / x, false};
+      }
     const auto   it = std::upper_bound(opening_.begin(), opening_.end(), x);
     const auto   i  = static_cast<std::size_t>(it - opening_.begin()) - 1;
     const double dx = opening_[i + 1] - opening_[i];
@@ -165,7 +206,7 @@ namespace rectify::maps
     char buf[64];
     for (std::size_t i = 0; i < opening_.size(); ++i)
       {
-        std::snprintf(buf, sizeof(buf), "%.9g,%.9g\n", opening_[i], resistance_[i]);
+        std::snprintf(buf, sizeof(buf), "%.17g,%.17g\n", opening_[i], resistance_[i]);
         s << buf;
       }
     write_file_atomic(path, s.str());

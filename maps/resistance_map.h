@@ -17,6 +17,8 @@
 
 #include <filesystem>
 #include <nlohmann/json.hpp>
+
+#include "maps/monotone_cubic.h"
 #include <string>
 #include <vector>
 
@@ -28,7 +30,11 @@ namespace rectify::maps
     monotone_cubic, ///< log R by monotone cubic Hermite (Fritsch-Carlson, as PCHIP): the
                     ///< default; continuous slope, so an ODE solver meets no kinks
     log_linear,     ///< log R linear in x (exponential segments)
-    linear          ///< R linear in x, as the thesis (sec. 3.2.4)
+    linear,         ///< R linear in x, as the thesis (sec. 3.2.4)
+    log_log         ///< log R by monotone cubic Hermite in log x: exact for a power law
+                    ///< R ~ x^n (thin-gap theory's x^-3); below the first open node the
+                    ///< power law of the first interval, never above the closed value.
+                    ///< The map sets' interpolation (needs two open nodes).
   };
 
   /// What happens beyond the last node.
@@ -38,7 +44,9 @@ namespace rectify::maps
     error ///< the simulation stops with an error naming the opening
   };
 
+  /// "monotone-cubic", "log-linear", "linear", "log-log"; and back.
   Interpolation parse_interpolation(const std::string &name);
+  std::string   to_string(Interpolation interpolation);
   OutOfRange    parse_out_of_range(const std::string &name);
 
   class ResistanceMap
@@ -80,6 +88,8 @@ namespace rectify::maps
     std::vector<double> resistance_;
     std::vector<double> log_resistance_;
     std::vector<double> log_slope_; ///< d(log R)/dx at the nodes (monotone cubic)
+    MonotoneCubic       log_log_;   ///< log R over log x, open nodes (log_log)
+    double              first_exponent_ = 0; ///< d log R / d log x of the first open interval
     std::string         name_;
     nlohmann::json      metadata_;
     Interpolation       interpolation_;

@@ -8,17 +8,12 @@
 
 #include "common/case_file.h"
 #include "common/fluid.h"
+#include "common/reed_material.h"
 #include "common/valve_geometry.h"
 
 namespace rectify::stiffness
 {
-  struct ReedMaterial
-  {
-    double youngs_modulus_Pa = 200e9;  ///< 304 stainless steel (thesis Table 3.1)
-    double poisson_ratio     = 0.29;   ///< not in the thesis; typical of 304
-    double density_kg_per_m3 = 8000.0; ///< thesis Table 3.1
-    static ReedMaterial from_case(const CaseFile &file);
-  };
+  using rectify::ReedMaterial; ///< common/reed_material.h
 
   /// Where the load sits.
   enum class Load

@@ -117,14 +117,29 @@ namespace rectify::system
             {"bias_pressure_Pa", p_bias}};
   }
 
-  Model::Model(const SystemParameters &parameters, maps::ResistanceMap map, ValveModel valves,
+  Model::Model(const SystemParameters &parameters, std::array<maps::MapSet, 2> valve_maps, ValveModel valves,
                Scenario scenario, Drive drive)
     : c_(parameters, scenario)
-    , map_(std::move(map))
+    , maps_(std::move(valve_maps))
     , valves_(valves)
     , scenario_(scenario)
     , drive_(std::move(drive))
   {}
+
+  Model::Model(const SystemParameters &parameters, maps::ResistanceMap map, ValveModel valves,
+               Scenario scenario, Drive drive)
+    : Model(parameters,
+            {maps::map_set_from_resistance(map, parameters.reed.pressure_area_m2),
+             maps::map_set_from_resistance(map, parameters.reed.pressure_area_m2)},
+            valves, scenario, std::move(drive))
+  {}
+
+  maps::AreaMap::Value Model::force_area(std::size_t v, std::span<const double> y) const
+  {
+    if (valves_ == ValveModel::ideal || closed_[v])
+      return {maps_[v].seated_area_m2(), 0.0};
+    return maps_[v].area().evaluate(opening(v, y));
+  }
 
   void Model::reset()
   {
@@ -208,10 +223,10 @@ namespace rectify::system
                                                      std::span<const double> y) const
   {
     if (valves_ == ValveModel::ideal)
-      return {closed_[v] ? map_.closed_resistance() : c_.R_ideal_open, 0.0, false};
+      return {closed_[v] ? maps_[v].resistance().closed_resistance() : c_.R_ideal_open, 0.0, false};
     if (closed_[v])
-      return {map_.closed_resistance(), 0.0, false};
-    return map_.evaluate(opening(v, y));
+      return {maps_[v].resistance().closed_resistance(), 0.0, false};
+    return maps_[v].resistance().evaluate(opening(v, y));
   }
 
   Flows Model::flows(std::span<const double> y) const
@@ -278,8 +293,8 @@ namespace rectify::system
     // valve pressure drops: R q + K q|q| (p_o = (R1 p_h + R3 p_ch)/(R1 + R3) when linear)
     f.p_outlet      = p_ch - f.R1 * f.q_outlet - K1 * f.q_outlet * std::abs(f.q_outlet);
     f.p_inlet       = p_ch + f.R2 * f.q_inlet + K2 * f.q_inlet * std::abs(f.q_inlet);
-    f.outlet_force  = c_.reed.area * (p_ch - f.p_outlet);
-    f.inlet_force   = c_.reed.area * (f.p_inlet - p_ch);
+    f.outlet_force  = force_area(0, y).area * (p_ch - f.p_outlet);
+    f.inlet_force   = force_area(1, y).area * (f.p_inlet - p_ch);
     return f;
   }
 
@@ -407,26 +422,32 @@ namespace rectify::system
       J(row, inlet_reed_x) += scale * g.xi;
     };
 
-    // Reeds: F_o = A_r R1 q_out, F_i = A_r R2 q_in.
+    // Reeds: F_o = A(x_o) R1 q_out, F_i = A(x_i) R2 q_in (A = A_r, or A_eff(x) of a map set).
     if (valves_ == ValveModel::dynamic)
       {
         if (!closed_[0])
           {
+            const auto A = force_area(0, y);
             J(outlet_reed_x, outlet_reed_v) = 1.0;
             J(outlet_reed_v, outlet_reed_x) = -c_.reed.stiffness / c_.reed.mass;
             J(outlet_reed_v, outlet_reed_v) = -c_.reed.damping / c_.reed.mass;
-            Gradient F{c_.reed.area * R1 * g13, 0.0, -c_.reed.area * R1 * g13, 0.0,
-                       c_.reed.area * (p_ch - p_h) * r1.slope * c_.R3 * g13 * g13, 0.0};
+            Gradient F{A.area * R1 * g13, 0.0, -A.area * R1 * g13, 0.0,
+                       A.area * (p_ch - p_h) * r1.slope * c_.R3 * g13 * g13, 0.0};
+            if (A.slope != 0.0) // dA/dx times the valve's pressure drop R1 q_out
+              F.xo += A.slope * R1 * f.q_outlet;
             put(outlet_reed_v, F, 1.0 / c_.reed.mass);
           }
         if (!closed_[1])
           {
+            const auto A = force_area(1, y);
             J(inlet_reed_x, inlet_reed_v) = 1.0;
             J(inlet_reed_v, inlet_reed_x) = -c_.reed.stiffness / c_.reed.mass;
             J(inlet_reed_v, inlet_reed_v) = -c_.reed.damping / c_.reed.mass;
-            Gradient F{c_.reed.area * R2 * q_in.ch, c_.reed.area * R2 * q_in.acc, 0.0,
-                       c_.reed.area * R2 * q_in.l, 0.0,
-                       c_.reed.area * (r2.slope * f.q_inlet + R2 * q_in.xi)};
+            Gradient F{A.area * R2 * q_in.ch, A.area * R2 * q_in.acc, 0.0,
+                       A.area * R2 * q_in.l, 0.0,
+                       A.area * (r2.slope * f.q_inlet + R2 * q_in.xi)};
+            if (A.slope != 0.0)
+              F.xi += A.slope * R2 * f.q_inlet;
             put(inlet_reed_v, F, 1.0 / c_.reed.mass);
           }
       }

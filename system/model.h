@@ -12,8 +12,9 @@
 //   m_eff x_p'' = N q k_td I - (b_f + b_eff) x_p' + b_f x_f' - (k_eff + k_f) x_p + k_f x_f   (3.6)
 //   m_f   x_f'' = b_f x_p' - b_f x_f' + k_f x_p - k_f x_f - p_ch A_pi      (3.7, sign corrected)
 //   m_l x_act'' = (p_h - p_l) A_po - b_l x_act' - k_l x_act                (3.8)
-//   m_r x_ro''  = (p_ch - p_o) A_r - b_r x_ro' - k_r x_ro,  x_ro >= 0     (3.9)
-//   m_r x_ri''  = (p_i - p_ch) A_r - b_r x_ri' - k_r x_ri,  x_ri >= 0     (3.10)
+//   m_r x_ro''  = (p_ch - p_o) A(x_ro) - b_r x_ro' - k_r x_ro,  x_ro >= 0  (3.9)
+//   m_r x_ri''  = (p_i - p_ch) A(x_ri) - b_r x_ri' - k_r x_ri,  x_ri >= 0  (3.10)
+//   A = A_r (thesis) or, from a map set, A_eff(x) open and the seated area on the seat
 //   C_ch p_ch'  = A_pi x_p' + q_in - q_out                                 (3.31)
 //   C_acc p_acc' = q_acc,  C_h p_h' = q_out - A_po x_act',  C_l p_l' = q_low + A_po x_act'
 //
@@ -29,6 +30,7 @@
 #include <span>
 #include <vector>
 
+#include "maps/map_set.h"
 #include "maps/resistance_map.h"
 #include "system/drive.h"
 #include "system/integrator.h"
@@ -48,6 +50,9 @@ namespace rectify::system
     no_flow, ///< output mass 1e12 kg (thesis sec. 5.1)
     loaded   ///< inertial load (thesis sec. 5.2)
   };
+
+  /// The maps of the outlet [0] and inlet [1] valve.
+  using ValveMaps = std::array<maps::MapSet, 2>;
 
   ValveModel parse_valve_model(const std::string &name);
   Scenario   parse_scenario(const std::string &name);
@@ -135,12 +140,18 @@ namespace rectify::system
     double q_inlet;                ///< junction -> chamber, through the inlet valve
     double q_accumulator;          ///< junction -> accumulator
     double q_low;                  ///< junction -> low side
-    double outlet_force, inlet_force; ///< opening pressure force on each reed [N]
+    double outlet_force, inlet_force; ///< opening pressure force on each reed [N]: A dp
   };
 
   class Model : public OdeSystem
   {
   public:
+    /// Each valve (0 outlet, 1 inlet) from its map set: R(x), the opening
+    /// force's area A_eff(x), the seated reed's area.
+    Model(const SystemParameters &parameters, std::array<maps::MapSet, 2> valve_maps, ValveModel valves,
+          Scenario scenario, Drive drive);
+    /// Both valves from one R(x) map with the constant force area A_r
+    /// ([reed] pressure_area_m2): the thesis's model.
     Model(const SystemParameters &parameters, maps::ResistanceMap map, ValveModel valves,
           Scenario scenario, Drive drive);
 
@@ -182,7 +193,11 @@ namespace rectify::system
 
     const ModelConstants       &constants() const { return c_; }
     const Drive                &drive() const { return drive_; }
-    const maps::ResistanceMap  &resistance_map() const { return map_; }
+    const maps::ResistanceMap  &resistance_map() const { return maps_[0].resistance(); }
+    const maps::MapSet         &valve_map(std::size_t v) const { return maps_[v]; }
+    /// The opening force's area of valve v at state y and its slope dA/dx:
+    /// the seated area while the reed is seated (or an ideal valve), else A_eff(x).
+    maps::AreaMap::Value        force_area(std::size_t v, std::span<const double> y) const;
     ValveModel                  valve_model() const { return valves_; }
     Scenario                    scenario() const { return scenario_; }
 
@@ -193,7 +208,7 @@ namespace rectify::system
     static double driving_pressure(std::size_t v, std::span<const double> y, const Flows &f);
 
     ModelConstants        c_;
-    maps::ResistanceMap   map_;
+    std::array<maps::MapSet, 2> maps_;
     ValveModel            valves_;
     Scenario              scenario_;
     Drive                 drive_;

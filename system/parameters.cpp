@@ -4,6 +4,11 @@
 
 #include <cmath>
 #include <numbers>
+#include <filesystem>
+#include <optional>
+
+#include "common/reed_material.h"
+#include "common/valve_geometry.h"
 
 namespace rectify::system
 {
@@ -120,9 +125,24 @@ namespace rectify::system
   {
     ValveParameters   p;
     const std::string t = "valves";
+    const std::string both = f.text(t, "map_set", "");
+    for (std::size_t v = 0; v < 2; ++v)
+      {
+        const std::string key = v == 0 ? "outlet_map_set" : "inlet_map_set";
+        const std::string one = f.text(t, key, "");
+        if (!one.empty() && !both.empty())
+          throw InputError(f.where(t, key) + ": give map_set (both valves) or " + key + ", not both");
+        const std::string dir = one.empty() ? both : one;
+        p.map_set[v]          = dir.empty() ? "" : f.resolve(dir).string();
+      }
+    const bool any_map_set = !p.map_set[0].empty() || !p.map_set[1].empty();
+    for (const char *key : {"resistance_map", "interpolation"})
+      if (any_map_set && p.map_set[0].size() && p.map_set[1].size() && f.has(t, key))
+        throw InputError(f.where(t, key) + ": both valves read their map sets, which give R(x) and its "
+                         "interpolation; remove " + key);
     p.resistance_map =
       f.resolve(f.text(t, "resistance_map", "thesis-resistance.csv")).string();
-    p.interpolation = f.text(t, "interpolation", p.interpolation, {"monotone-cubic", "log-linear", "linear"});
+    p.interpolation = f.text(t, "interpolation", p.interpolation, {"monotone-cubic", "log-linear", "linear", "log-log"});
     p.out_of_range  = f.text(t, "out_of_range", p.out_of_range, {"hold", "error"});
     p.ideal_open_resistance_Pa_s_per_m3 = f.real(t, "ideal_open_resistance_Pa_s_per_m3",
                                                  p.ideal_open_resistance_Pa_s_per_m3, positive);
@@ -213,7 +233,57 @@ namespace rectify::system
     return p;
   }
 
-  SystemParameters SystemParameters::from_case(const CaseFile &f)
+  namespace
+  {
+    /// Checks each valve's map set against the case and takes the reed's
+    /// stiffness and mass from it (the same reed for both valves).
+    void apply_map_sets(const CaseFile &f, SystemParameters &p, bool override_case = false)
+    {
+      if (p.valves.map_set[0].empty() && p.valves.map_set[1].empty())
+        return;
+      const nlohmann::json tables =
+        maps::physical_tables(ValveGeometry::from_case(f), p.fluid, ReedMaterial::from_case(f));
+      std::optional<maps::ReedProperties> reed;
+      std::string                         reed_from;
+      for (std::size_t v = 0; v < 2; ++v)
+        {
+          if (p.valves.map_set[v].empty())
+            continue;
+          const auto set = maps::MapSet::read(p.valves.map_set[v]);
+          set.check_matches(tables, f.name());
+          if (!set.reed())
+            continue;
+          if (reed && std::abs(reed->stiffness_N_per_m / set.reed()->stiffness_N_per_m - 1) > 1e-12)
+            throw InputError("the outlet's map set '" + reed_from + "' and the inlet's '" + p.valves.map_set[v] +
+                             "' hold different reeds (k_r " + format_number(reed->stiffness_N_per_m) + " and " +
+                             format_number(set.reed()->stiffness_N_per_m) +
+                             " N/m); the model has one reed for both valves");
+          reed      = set.reed();
+          reed_from = p.valves.map_set[v];
+        }
+      if (!override_case && f.has("reed", "pressure_area_m2") && !p.valves.map_set[0].empty() &&
+          !p.valves.map_set[1].empty())
+        throw InputError(f.where("reed", "pressure_area_m2") +
+                         ": the map sets give the force on the reeds (A_eff(x), and the seated area); remove it");
+      if (!reed)
+        return;
+      for (const char *key : {"stiffness_N_per_m", "effective_mass_kg", "properties_map"})
+        if (!override_case && f.has("reed", key))
+          throw InputError(f.where("reed", key) + ": the map set '" + reed_from +
+                           "' gives the reed's stiffness and mass; remove " + key);
+      const bool eq321 = f.text("reed", "properties_mass", "eq321", {"eq321", "modal-in-fluid"}) == "eq321";
+      p.reed.stiffness_N_per_m = reed->stiffness_N_per_m;
+      p.reed.effective_mass_kg = eq321 ? reed->effective_mass_eq321_kg : reed->modal_mass_in_fluid_kg;
+      p.reed.source = "map set " + reed_from + (eq321 ? " (mass: eq. 3.21)" : " (mass: FE mode in oil)");
+      const double f1 = std::sqrt(p.reed.stiffness_N_per_m / p.reed.effective_mass_kg) / (2 * std::numbers::pi);
+      if (p.reed.second_mode_frequency_Hz > 0.0 && p.reed.second_mode_frequency_Hz <= f1)
+        throw InputError(f.where("reed", "second_mode_frequency_Hz") + " = " +
+                         format_number(p.reed.second_mode_frequency_Hz) + ": must be above the first mode's " +
+                         format_number(f1) + " Hz (map set " + reed_from + ")");
+    }
+  } // namespace
+
+  SystemParameters SystemParameters::from_case(const CaseFile &f, bool read_map_sets)
   {
     SystemParameters p;
     p.fluid       = FluidParameters::from_case(f);
@@ -227,7 +297,29 @@ namespace rectify::system
     p.load        = LoadParameters::from_case(f);
     p.drive       = DriveParameters::from_case(f);
     p.solver      = SolverParameters::from_case(f);
+    if (read_map_sets)
+      apply_map_sets(f, p);
     return p;
+  }
+
+  void use_map_set(SystemParameters &p, const CaseFile &f, const std::string &dir)
+  {
+    const std::string path = std::filesystem::absolute(dir).string();
+    p.valves.map_set       = {path, path};
+    apply_map_sets(f, p, true);
+  }
+
+  std::array<maps::MapSet, 2> load_valve_maps(const SystemParameters &p)
+  {
+    const auto from_map = [&]() {
+      return maps::map_set_from_resistance(
+        maps::ResistanceMap::read(p.valves.resistance_map, maps::parse_interpolation(p.valves.interpolation)),
+        p.reed.pressure_area_m2);
+    };
+    const auto valve = [&](std::size_t v) {
+      return p.valves.map_set[v].empty() ? from_map() : maps::MapSet::read(p.valves.map_set[v]);
+    };
+    return {valve(0), valve(1)};
   }
 } // namespace rectify::system
 
@@ -269,7 +361,9 @@ namespace rectify::system
         {"second_mode_frequency_Hz", reed.second_mode_frequency_Hz},
         {"source", reed.source}}},
       {"valves",
-       {{"resistance_map", valves.resistance_map},
+       {{"outlet_map_set", valves.map_set[0]},
+        {"inlet_map_set", valves.map_set[1]},
+        {"resistance_map", valves.resistance_map},
         {"interpolation", valves.interpolation},
         {"out_of_range", valves.out_of_range},
         {"ideal_open_resistance_Pa_s_per_m3", valves.ideal_open_resistance_Pa_s_per_m3},

@@ -5,11 +5,13 @@
 // docs/system-model.md.
 #pragma once
 
+#include <array>
 #include <nlohmann/json.hpp>
 #include <string>
 
 #include "common/case_file.h"
 #include "common/fluid.h"
+#include "maps/map_set.h"
 
 namespace rectify::system
 {
@@ -63,6 +65,10 @@ namespace rectify::system
 
   struct ValveParameters
   {
+    /// Resolved map-set folders of the outlet [0] and inlet [1] valve (keys
+    /// map_set for both, outlet_map_set / inlet_map_set for one); empty: the
+    /// valve is described by resistance_map and [reed] pressure_area_m2.
+    std::array<std::string, 2> map_set;
     std::string resistance_map;     ///< resolved path of the R(x) map file
     std::string interpolation = "monotone-cubic";
     std::string out_of_range  = "hold";
@@ -157,8 +163,21 @@ namespace rectify::system
     DriveParameters       drive;
     SolverParameters      solver;
 
-    static SystemParameters from_case(const CaseFile &file);
+    /// Reads every table; with map sets, checks each against the case's
+    /// [geometry], [fluid] and [reed_material] and takes k_r and m_r from it.
+    /// `read_map_sets` false: the map-set keys are read but the folders not
+    /// opened (for a command about to write them).
+    static SystemParameters from_case(const CaseFile &file, bool read_map_sets = true);
     /// All inputs and the derived model constants, for summaries.
     nlohmann::json to_json() const;
   };
+  /// Makes both valves read the map set in `dir` (a command line's
+  /// --map-set, which wins over the case's [valves] and [reed] k_r, m_r and
+  /// pressure_area_m2): checks it against the case's [geometry], [fluid] and
+  /// [reed_material] and takes k_r and m_r from it if it has a reed.
+  void use_map_set(SystemParameters &parameters, const CaseFile &file, const std::string &dir);
+
+  /// The two valves' maps (0 outlet, 1 inlet): their map sets, or the R(x)
+  /// map with the constant area A_r. InputError for a missing or bad file.
+  std::array<maps::MapSet, 2> load_valve_maps(const SystemParameters &parameters);
 } // namespace rectify::system

@@ -199,7 +199,9 @@ namespace rectify::system
     const std::size_t spc = std::max<std::size_t>(options.samples_per_cycle, 4);
     SettleDetector    settle(options.settle_tolerance, 5);
     const bool        pressure_metric = model.scenario() == Scenario::no_flow;
-    const double      map_max         = model.resistance_map().max_opening();
+    const double      map_max_o = model.valve_map(0).resistance().max_opening();
+    const double      map_max_i = model.valve_map(1).resistance().max_opening();
+    const double      map_max   = std::min(map_max_o, map_max_i);
 
     std::vector<double> window_start_state = y0;
     double              window_start_time  = 0.0;
@@ -240,7 +242,7 @@ namespace rectify::system
                     section_max[i] = std::max(section_max[i], y[section_states[i]]);
                   }
               }
-            if (std::max(x_o, x_i) > map_max)
+            if (x_o > map_max_o || x_i > map_max_i)
               ++result.n_samples_beyond_map;
             if (result.series)
               {
@@ -350,7 +352,8 @@ namespace rectify::system
     if (result.n_samples_beyond_map > 0 && c.out_of_range == maps::OutOfRange::error)
       throw InputError("a reed opened to " + format_number(std::max(max_ro, max_ri)) +
                        " m, beyond the last node of resistance map '" +
-                       model.resistance_map().name() + "' (" + format_number(map_max) +
+                       model.valve_map(max_ro > map_max_o ? 0 : 1).resistance().name() + "' (" +
+                       format_number(max_ro > map_max_o ? map_max_o : map_max_i) +
                        " m), and [valves] out_of_range = 'error'");
     if (!result.settled)
       result.warnings.push_back("not settled after " + std::to_string(result.n_startup_cycles) +

@@ -206,9 +206,7 @@ namespace rectify::system
               SystemParameters p   = parameters;
               p.reed.stiffness_N_per_m *= job.series.stiffness_factor;
               p.reed.effective_mass_kg *= job.series.mass_factor;
-              Model model(p, maps::ResistanceMap::read(p.valves.resistance_map,
-                                                       maps::parse_interpolation(p.valves.interpolation)),
-                          job.series.valves, options.scenario,
+              Model model(p, load_valve_maps(p), job.series.valves, options.scenario,
                           Drive::sine(job.frequency, options.current_pp_A, options.current_bias_A));
               const RunResult r = run(model, options.run);
               SweepPoint      pt{job.series.name,

@@ -274,8 +274,7 @@ TEST(Diagnosis, EffectLibraryNamesBoundsAndKeys)
                                           "piston_friction", "reed_second_mode"};
   ASSERT_EQ(effect_library().size(), expected.size());
   const auto base = system::SystemParameters::from_case(CaseFile::load(reference_case_path()));
-  const auto map  = maps::ResistanceMap::read(base.valves.resistance_map,
-                                              maps::parse_interpolation(base.valves.interpolation));
+  const auto map  = system::load_valve_maps(base);
   for (std::size_t i = 0; i < expected.size(); ++i)
     {
       const auto &e = effect_library()[i];

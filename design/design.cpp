@@ -1,0 +1,295 @@
+#include "design/design.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <sstream>
+
+#include "common/io.h"
+#include "common/plot.h"
+#include "maps/map_set.h"
+#include "mesher/parameters.h"
+#include "stiffness_solver/elasticity.h"
+#include "stiffness_solver/reed_analysis.h"
+
+namespace rectify::design
+{
+  namespace
+  {
+    using Clock = std::chrono::steady_clock;
+    double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+    nlohmann::json mesh_settings(const mesher::MeshSettings &s)
+    {
+      return {{"size_reed_m", s.size_reed_m},
+              {"size_far_m", s.size_far_m},
+              {"size_growth", s.size_growth},
+              {"station_spacing_m", s.station_spacing_m},
+              {"port_segments", s.port_segments},
+              {"gap_layers", s.gap_layers},
+              {"reed_layers", s.reed_layers},
+              {"above_layers", s.above_layers},
+              {"slab_margin_m", s.slab_margin_m},
+              {"blend_distance_m", s.blend_distance_m},
+              {"port_layer_m", s.port_layer_m},
+              {"gap_cutoff_ratio", s.gap_cutoff_ratio},
+              {"min_angle_deg", s.min_angle_deg},
+              {"tetgen_radius_edge_ratio", s.tetgen_radius_edge_ratio},
+              {"tetgen_min_dihedral_deg", s.tetgen_min_dihedral_deg},
+              {"tetgen_max_volume_m3", s.tetgen_max_volume_m3}};
+    }
+
+    nlohmann::json flow_settings(const stokes::FlowSettings &s)
+    {
+      return {{"flow_rate_m3_per_s", s.flow_rate_m3_per_s},
+              {"outlet_pressure_Pa", s.outlet_pressure_Pa},
+              {"solver", s.solver},
+              {"direct_max_dofs", s.direct_max_dofs},
+              {"schur", s.schur},
+              {"tolerance", s.tolerance},
+              {"max_iterations", s.max_iterations}};
+    }
+
+    nlohmann::json stiffness_settings(const stiffness::StiffnessSettings &s)
+    {
+      return {{"load", stiffness::to_string(s.load)},
+              {"fe_degree", s.fe_degree},
+              {"cells_along_length", s.cells_along_length},
+              {"cells_across_width", s.cells_across_width},
+              {"cells_through_thickness", s.cells_through_thickness},
+              {"n_modes", s.n_modes},
+              {"added_mass_factor", s.added_mass_factor}};
+    }
+
+    std::string utc_now()
+    {
+      const std::time_t t = std::time(nullptr);
+      char              buf[32];
+      std::strftime(buf, sizeof(buf), "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
+      return buf;
+    }
+
+    std::string fmt(const char *format, double v)
+    {
+      char buf[64];
+      std::snprintf(buf, sizeof(buf), format, v);
+      return buf;
+    }
+  } // namespace
+
+  nlohmann::json map_set_provenance(const CaseFile &file)
+  {
+    const auto sp = stiffness::StiffnessParameters::from_case(file);
+    const auto mp = mesher::MeshParameters::from_case(file);
+    const auto fp = stokes::FlowParameters::from_case(file);
+    nlohmann::json tables = maps::physical_tables(sp.geometry, fp.fluid, sp.material);
+    tables["mesh"]      = mesh_settings(mp.settings);
+    tables["flow"]      = flow_settings(fp.settings);
+    tables["stiffness"] = stiffness_settings(sp.settings);
+    return maps::hashed_tables(tables);
+  }
+
+  DesignResult run_design(const CaseFile &file, const std::filesystem::path &out, const stokes::MpiSession &mpi)
+  {
+    const auto start = Clock::now();
+    const bool root  = mpi.rank() == 0;
+    const auto sp    = stiffness::StiffnessParameters::from_case(file);
+    auto       mp    = mesher::MeshParameters::from_case(file);
+    const auto fp    = stokes::FlowParameters::from_case(file);
+    const auto ss    = stokes::SweepSettings::from_case(file);
+    const auto deps  = map_set_provenance(file);
+    if (ss.to_m >= sp.geometry.pocket_height_m - sp.geometry.reed_thickness_m)
+      throw InputError(file.where("design", "openings_to_m") + " = " + format_number(ss.to_m) +
+                       ": the reed's top would reach the pocket's ceiling (" +
+                       format_number(sp.geometry.pocket_height_m) + " m)");
+    const auto reed_dir = out / "reed", partial = out / "partial";
+    if (root)
+      {
+        ensure_directory(reed_dir);
+        ensure_directory(partial);
+        std::filesystem::remove(out / "manifest.json"); // unfinished until written again
+      }
+    DesignResult result;
+
+    // 1. The reed: stiffness, modes, the deflected shape under the port load.
+    auto t = Clock::now();
+    stiffness::SolveOptions so;
+    if (root)
+      so.vtu_file = reed_dir / "reed.vtu";
+    const auto r      = stiffness::solve_reed(sp, so);
+    const auto bounds = stiffness::reed_bounds(sp);
+    const auto fluid  = stiffness::in_fluid(r, bounds, sp.settings.added_mass_factor);
+    maps::ReedProperties reed;
+    reed.stiffness_N_per_m       = r.k_N_per_m;
+    reed.modal_mass_kg           = r.modes.empty() ? 0.0 : r.modes[0].modal_mass_kg;
+    reed.modal_mass_in_fluid_kg  = fluid.modal_mass_kg;
+    reed.effective_mass_eq321_kg = fluid.eq321_mass_kg;
+    reed.frequency_Hz            = r.modes.empty() ? 0.0 : r.modes[0].frequency_Hz;
+    reed.frequency_in_fluid_Hz   = fluid.frequency_Hz;
+    reed.plate_mass_kg           = r.plate_mass_kg;
+    reed.added_mass_kg           = bounds.added_mass_kg;
+    const std::string shape = stiffness::shape_csv(r, sp);
+    result.stiffness_time_s = seconds_since(t);
+    result.k_N_per_m        = r.k_N_per_m;
+    result.f1_in_fluid_Hz   = fluid.frequency_Hz;
+    if (root)
+      {
+        write_file_atomic(reed_dir / "shape.csv", shape);
+        CsvTable beam({"s_m", "phi_beam"});
+        const double L = sp.geometry.reed_length_m, a = sp.geometry.port_center_x_m;
+        for (int i = 0; i <= 60; ++i)
+          {
+            const double row[2] = {L * i / 60.0, stiffness::beam_shape(L * i / 60.0, L, a)};
+            beam.add_row(row);
+          }
+        beam.write(reed_dir / "shape-beam.csv");
+        render_plot(reed_dir / "shape",
+                    {{"Reed underside under the port load, unit tip opening: the shape the flow mesh uses",
+                      "distance from the clamp [mm]", "phi", false, false,
+                      {{reed_dir / "shape.csv", "s_m", "phi", "FE, mean across the width", "lines", 1e3, 1},
+                       {reed_dir / "shape-beam.csv", "s_m", "phi_beam", "beam (point load at the port centre)",
+                        "lines", 1e3, 1}}}});
+        std::fprintf(stderr, "design: reed k = %.6g N/m, f1 %.6g Hz in vacuum, %.6g Hz in oil (%.1f s)\n",
+                     r.k_N_per_m, reed.frequency_Hz, fluid.frequency_Hz, result.stiffness_time_s);
+      }
+    (void)mpi.broadcast({}); // the shape file exists for every process
+
+    // 2. The flow over openings, on meshes of the FE shape.
+    mp.settings.shape       = "table";
+    mp.settings.shape_table = reed_dir / "shape.csv";
+    nlohmann::json fingerprint = {{"depends_on", deps},
+                                  {"reed_shape_hash", content_hash(shape)},
+                                  {"rectify_version", RECTIFY_VERSION}};
+    fingerprint["depends_on"].erase("stiffness"); // the shape's hash stands for it
+    result.sweep = stokes::resistance_sweep(mp, fp, ss, partial, fingerprint, mpi);
+    result.wall_time_s = seconds_since(start);
+    if (!root)
+      return result;
+
+    // 3. The map set.
+    const auto &pts = result.sweep.points;
+    std::vector<double> x{0.0}, R{1e17}, xa, A;
+    for (const auto &p : pts)
+      {
+        x.push_back(p.opening_m), R.push_back(p.R_Pa_s_per_m3);
+        xa.push_back(p.opening_m), A.push_back(p.A_eff_m2);
+      }
+    nlohmann::json checks = nlohmann::json::array(), points = nlohmann::json::array();
+    for (const auto &c : result.sweep.checks)
+      checks.push_back({{"from_m", c.from_m}, {"to_m", c.to_m}, {"midpoint_m", c.midpoint_m},
+                        {"R_error", c.R_error}, {"A_eff_error", c.A_error}, {"passed", c.passed},
+                        {"limited", c.limited}});
+    for (const auto &p : pts)
+      points.push_back({{"opening_m", p.opening_m},
+                        {"n_dofs", p.n_dofs},
+                        {"iterations", p.iterations},
+                        {"mass_balance_rel_error", p.mass_balance_rel_error},
+                        {"wall_time_s", p.wall_time_s}});
+    nlohmann::json manifest = {
+      {"source", "rectify design: Stokes flow (deal.II, P2-P1) on meshes of the FE reed shape; 3D elasticity"},
+      {"rectify_version", RECTIFY_VERSION},
+      {"code_revision", RECTIFY_REVISION},
+      {"created", utc_now()},
+      {"case", file.name()},
+      {"depends_on", deps},
+      {"settings",
+       {{"design", ss.to_json()},
+        {"reed_shape", "fe: the stiffness solver's deflection under the " + stiffness::to_string(sp.settings.load) +
+                         " load, scaled to the tip opening (reed/shape.csv)"},
+        {"reed_shape_hash", content_hash(shape)},
+        {"closed_R_Pa_s_per_m3", 1e17},
+        {"n_processes", mpi.size()}}},
+      {"points", points},
+      {"interpolation_error",
+       {{"tolerance", ss.tolerance},
+        {"R_max_rel", result.sweep.max_R_error},
+        {"A_eff_max_rel", result.sweep.max_A_error},
+        {"converged", result.sweep.converged},
+        {"meaning", "largest miss of the interpolant without a midpoint at that midpoint, over the checks "
+                    "that passed: the final map, which includes the midpoints, is at least this close"},
+        {"checks", checks}}},
+      {"wall_time_s", seconds_since(start)},
+      {"stiffness_wall_time_s", result.stiffness_time_s}};
+    const double seated = M_PI * 0.25 * sp.geometry.port_diameter_m * sp.geometry.port_diameter_m;
+    nlohmann::json r_meta = {{"source", "rectify design"}, {"closed", "1e17 Pa s/m^3 at x = 0 (the thesis's)"},
+                             {"below_first_open_node", "the first interval's power law, capped at the closed value"}};
+    const maps::MapSet set(maps::ResistanceMap(x, R, (out / "resistance.csv").string(), r_meta,
+                                               maps::Interpolation::log_log),
+                           maps::AreaMap(xa, A, (out / "area.csv").string(), {{"source", "rectify design"}}),
+                           seated, reed, manifest);
+
+    // Tables and plots beside the map set.
+    CsvTable table(stokes::OpeningPoint::columns());
+    for (const auto &p : pts)
+      table.add_row(p.row());
+    table.write(out / "points.csv");
+    CsvTable curve({"opening_m", "R_Pa_s_per_m3", "A_eff_m2", "R_thesis_Pa_s_per_m3", "port_area_m2", "A_r_m2"});
+    const auto thesis = maps::thesis_resistance_map(25);
+    for (int k = 0; k <= 240; ++k)
+      {
+        const double xi  = ss.from_m * std::pow(ss.to_m / ss.from_m, k / 240.0);
+        const double row[6] = {xi, set.resistance().evaluate(xi).resistance, set.area().evaluate(xi).area,
+                               thesis.evaluate(xi).resistance, seated, 0.0123 * 0.0254 * 0.0254};
+        curve.add_row(row);
+      }
+    curve.write(out / "map-curve.csv");
+    render_plot(out / "resistance",
+                {{"Valve resistance R(x): Stokes on the FE reed shape", "tip opening [um]", "R [Pa s/m^3]", true, true,
+                  {{out / "points.csv", "opening_m", "R_Pa_s_per_m3", "Stokes (mean pressures), solved", "points", 1e6, 1},
+                   {out / "map-curve.csv", "opening_m", "R_Pa_s_per_m3", "map (log-log monotone cubic)", "lines", 1e6, 1},
+                   {out / "points.csv", "opening_m", "R_dissipation_Pa_s_per_m3", "Stokes (dissipation)", "points", 1e6, 1},
+                   {out / "points.csv", "opening_m", "R_thin_gap_Pa_s_per_m3", "thin-gap theory", "linespoints", 1e6, 1},
+                   {out / "map-curve.csv", "opening_m", "R_thesis_Pa_s_per_m3", "thesis fit (Fig. 3.7)", "lines", 1e6, 1}}},
+                 {"Effective force area A_eff = F_z / dp of the open reed", "tip opening [um]", "area [mm^2]", true, false,
+                  {{out / "points.csv", "opening_m", "A_eff_m2", "Stokes, solved", "points", 1e6, 1e6},
+                   {out / "map-curve.csv", "opening_m", "A_eff_m2", "map", "lines", 1e6, 1e6},
+                   {out / "map-curve.csv", "opening_m", "port_area_m2", "port area (seated reed)", "lines", 1e6, 1e6},
+                   {out / "map-curve.csv", "opening_m", "A_r_m2", "thesis A_r", "lines", 1e6, 1e6}}}});
+
+    // The report.
+    std::ostringstream md;
+    md << "# Map set: " << file.name() << "\n\n"
+       << "Made by `rectify design` (rectify " << RECTIFY_VERSION << ", " << RECTIFY_REVISION << ") on "
+       << utc_now() << ", " << mpi.size() << " process(es), " << fmt("%.0f", seconds_since(start))
+       << " s wall.\n\n## The reed (stiffness solver)\n\n"
+       << "| quantity | FE | beam (E) | plate (E') | thesis |\n|---|---:|---:|---:|---:|\n"
+       << "| k_r [N/m] | " << fmt("%.5g", r.k_N_per_m) << " | " << fmt("%.5g", bounds.k_beam) << " | "
+       << fmt("%.5g", bounds.k_plate) << " | 6650 |\n"
+       << "| f1 in vacuum [Hz] | " << fmt("%.5g", reed.frequency_Hz) << " | " << fmt("%.5g", bounds.f1_beam) << " | "
+       << fmt("%.5g", bounds.f1_plate) << " | |\n"
+       << "| f1 in oil, eq. 3.20's added mass [Hz] | " << fmt("%.5g", fluid.frequency_Hz) << " | | | |\n"
+       << "| m_r, eq. 3.21 (x" << sp.settings.added_mass_factor << ") [kg] | " << fmt("%.4g", fluid.eq321_mass_kg)
+       << " | | | 3.643e-4 |\n"
+       << "| f1 with eq. 3.21's mass [Hz] | " << fmt("%.5g", fluid.eq321_frequency_Hz) << " | | | 680 |\n\n"
+       << "The flow meshes use the reed's FE shape under the port load (reed/shape.png), not the beam shape.\n\n"
+       << "## R(x) and A_eff(x)\n\n"
+       << "Openings chosen by accuracy: " << ss.initial_openings << " log-spaced from "
+       << format_number(ss.from_m * 1e6) << " to " << format_number(ss.to_m * 1e6)
+       << " um, then geometric midpoints wherever the map's interpolant (log R and A_eff, monotone cubic in log x) "
+          "missed the solved midpoint by more than "
+       << format_number(ss.tolerance * 100) << " %. " << pts.size() << " openings solved ("
+       << result.sweep.n_resumed << " from a checkpoint); interpolation error achieved: R "
+       << fmt("%.3f", 100 * result.sweep.max_R_error) << " %, A_eff " << fmt("%.3f", 100 * result.sweep.max_A_error)
+       << " %" << (result.sweep.converged ? "" : " (NOT converged: some intervals hit min_ratio or max_openings)")
+       << ".\n\n| opening [um] | R [Pa s/m^3] | R (dissipation) | thin-gap | Stokes / thin-gap | A_eff [mm^2] | "
+          "mass balance | DoFs | iterations | wall [s] |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+    for (const auto &p : pts)
+      md << "| " << fmt("%.4g", p.opening_m * 1e6) << " | " << fmt("%.5g", p.R_Pa_s_per_m3) << " | "
+         << fmt("%.5g", p.R_dissipation_Pa_s_per_m3) << " | " << fmt("%.5g", p.R_thin_gap_Pa_s_per_m3) << " | "
+         << fmt("%.3f", p.R_Pa_s_per_m3 / p.R_thin_gap_Pa_s_per_m3) << " | " << fmt("%.3f", p.A_eff_m2 * 1e6)
+         << " | " << fmt("%.0e", p.mass_balance_rel_error) << " | " << fmt("%.0f", p.n_dofs) << " | "
+         << fmt("%.0f", p.iterations) << " | " << fmt("%.1f", p.wall_time_s) << " |\n";
+    md << "\nSeated reed: the force acts on the port area, " << fmt("%.4g", seated * 1e6)
+       << " mm^2; open, on A_eff(x). Reynolds number in the port "
+       << fmt("%.3g", pts.empty() ? 0.0 : pts.front().reynolds_port) << ", at the gap's exit "
+       << fmt("%.3g", pts.empty() ? 0.0 : pts.front().reynolds_gap_exit)
+       << " (at the map's flow rate).\n\n"
+          "Files: manifest.json (provenance), resistance.csv, area.csv (the map set), points.csv (every "
+          "solved opening), resistance.png, reed/ (shape.csv, shape.png, reed.vtu).\n";
+    set.write(out);
+    write_file_atomic(out / "report.md", md.str());
+    result.manifest = set.manifest();
+    return result;
+  }
+} // namespace rectify::design

@@ -1,0 +1,226 @@
+#include "stokes_solver/resistance_sweep.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <memory>
+
+#include "common/checkpoint.h"
+#include "common/io.h"
+#include "common/progress.h"
+#include "maps/monotone_cubic.h"
+#include "mesher/mesher.h"
+#include "stokes_solver/thin_gap.h"
+
+namespace rectify::stokes
+{
+  SweepSettings SweepSettings::from_case(const CaseFile &f)
+  {
+    SweepSettings     s;
+    const std::string t = "design";
+    s.from_m            = f.real(t, "openings_from_m", s.from_m, Bounds::positive());
+    s.to_m              = f.real(t, "openings_to_m", s.to_m, Bounds::positive());
+    s.initial_openings  = static_cast<unsigned>(f.integer(t, "initial_openings", s.initial_openings, 3, 200));
+    s.tolerance         = f.real(t, "tolerance", s.tolerance, Bounds::open(0.0, 1.0));
+    s.min_ratio         = f.real(t, "min_ratio", s.min_ratio, Bounds{1.0, 10.0, false, true});
+    s.max_openings      = static_cast<unsigned>(f.integer(t, "max_openings", s.max_openings, 3, 1000));
+    if (!(s.to_m > s.from_m))
+      throw InputError(f.where(t, "openings_to_m") + " = " + format_number(s.to_m) +
+                       ": must exceed openings_from_m = " + format_number(s.from_m));
+    if (s.max_openings < s.initial_openings)
+      throw InputError(f.where(t, "max_openings") + " = " + std::to_string(s.max_openings) +
+                       ": below initial_openings = " + std::to_string(s.initial_openings));
+    return s;
+  }
+
+  nlohmann::json SweepSettings::to_json() const
+  {
+    return {{"openings_from_m", from_m},        {"openings_to_m", to_m},
+            {"initial_openings", initial_openings}, {"tolerance", tolerance},
+            {"min_ratio", min_ratio},           {"max_openings", max_openings}};
+  }
+
+  const std::vector<std::string> &OpeningPoint::columns()
+  {
+    static const std::vector<std::string> c{
+      "opening_m",        "R_Pa_s_per_m3",          "R_dissipation_Pa_s_per_m3", "reed_force_N",
+      "A_eff_m2",         "pressure_drop_Pa",       "R_thin_gap_Pa_s_per_m3",    "reynolds_port",
+      "reynolds_gap_exit", "mass_balance_rel_error", "n_dofs",                    "iterations",
+      "wall_time_s"};
+    return c;
+  }
+
+  std::vector<double> OpeningPoint::row() const
+  {
+    return {opening_m,         R_Pa_s_per_m3,          R_dissipation_Pa_s_per_m3, reed_force_N, A_eff_m2,
+            pressure_drop_Pa,  R_thin_gap_Pa_s_per_m3, reynolds_port,             reynolds_gap_exit,
+            mass_balance_rel_error, n_dofs,            iterations,                wall_time_s};
+  }
+
+  OpeningPoint OpeningPoint::from_row(const std::vector<double> &r)
+  {
+    OpeningPoint p;
+    p.opening_m = r.at(0), p.R_Pa_s_per_m3 = r.at(1), p.R_dissipation_Pa_s_per_m3 = r.at(2);
+    p.reed_force_N = r.at(3), p.A_eff_m2 = r.at(4), p.pressure_drop_Pa = r.at(5);
+    p.R_thin_gap_Pa_s_per_m3 = r.at(6), p.reynolds_port = r.at(7), p.reynolds_gap_exit = r.at(8);
+    p.mass_balance_rel_error = r.at(9), p.n_dofs = r.at(10), p.iterations = r.at(11), p.wall_time_s = r.at(12);
+    return p;
+  }
+
+  double thin_gap_R(const mesher::MeshParameters &mp, double closed_to_m, double opening, double mu)
+  {
+    const mesher::SampledShape shape = mp.sampled_shape();
+    return thin_gap_valve_R(mp.geometry, [&](double x) { return shape(x); }, opening, closed_to_m, mu, 10e-6);
+  }
+
+  std::pair<double, double> interpolate_point(const std::vector<OpeningPoint> &points, double x)
+  {
+    std::vector<double> lx, lr, a;
+    for (const auto &p : points)
+      {
+        lx.push_back(std::log(p.opening_m));
+        lr.push_back(std::log(p.R_Pa_s_per_m3));
+        a.push_back(p.A_eff_m2);
+      }
+    const maps::MonotoneCubic r_cubic(lx, lr), a_cubic(lx, a);
+    return {std::exp(r_cubic.evaluate(std::log(x)).value), a_cubic.evaluate(std::log(x)).value};
+  }
+
+  SweepResult resistance_sweep(const mesher::MeshParameters &mp, const FlowParameters &fp, const SweepSettings &s,
+                               const std::filesystem::path &dir, const nlohmann::json &fingerprint,
+                               const MpiSession &mpi)
+  {
+    const bool root    = mpi.rank() == 0;
+    const auto columns = OpeningPoint::columns();
+    std::string header;
+    for (const auto &c : columns)
+      header += (header.empty() ? "" : ",") + c;
+
+    // The root keeps the checkpoint; every process learns what is done.
+    std::unique_ptr<Checkpoint>   checkpoint;
+    std::vector<double>           flat;
+    if (root)
+      {
+        ensure_directory(dir);
+        checkpoint = std::make_unique<Checkpoint>(dir, "openings-partial", fingerprint, header);
+        for (const auto &line : checkpoint->finished_rows())
+          {
+            const auto csv = parse_csv(header + "\n" + line + "\n", (dir / "openings-partial.csv").string());
+            flat.insert(flat.end(), csv.rows[0].begin(), csv.rows[0].end());
+          }
+      }
+    flat = mpi.broadcast(flat);
+    std::map<double, OpeningPoint> done;
+    for (std::size_t i = 0; i + columns.size() <= flat.size(); i += columns.size())
+      done[flat[i]] = OpeningPoint::from_row({flat.begin() + static_cast<long>(i),
+                                              flat.begin() + static_cast<long>(i + columns.size())});
+    SweepResult result;
+    result.n_resumed = done.size();
+
+    const double rho = fp.fluid.density_kg_per_m3, mu = fp.fluid.viscosity_Pa_s, Q = fp.settings.flow_rate_m3_per_s;
+    const auto  &g   = mp.geometry;
+    std::map<double, OpeningPoint> solved; // this sweep's points
+    Progress progress("design: openings", s.initial_openings, 0, !root);
+    const auto solve = [&](double x) -> const OpeningPoint & {
+      if (const auto it = done.find(x); it != done.end())
+        {
+          if (root)
+            progress.step(format_number(x * 1e6) + " um: from the checkpoint");
+          return solved[x] = it->second;
+        }
+      const auto          valve = mesher::mesh_valve(mp, x, false);
+      const StokesResult  r     = solve_stokes(valve.mesh, fp);
+      OpeningPoint        p;
+      p.opening_m                 = x;
+      p.R_Pa_s_per_m3             = r.R_pressure_Pa_s_per_m3;
+      p.R_dissipation_Pa_s_per_m3 = r.R_dissipation_Pa_s_per_m3;
+      p.reed_force_N              = r.reed_force_N[2];
+      p.A_eff_m2                  = r.A_eff_m2;
+      p.pressure_drop_Pa          = r.inlet_pressure_Pa - r.outlet_pressure_Pa;
+      p.R_thin_gap_Pa_s_per_m3    = thin_gap_R(mp, valve.info.closed_to_m, x, mu);
+      // Reynolds numbers: in the port (diameter D) and at the gap's exit
+      // (2 h U / nu with U = Q / (perimeter h): independent of h).
+      p.reynolds_port          = 4 * rho * Q / (M_PI * g.port_diameter_m * mu);
+      p.reynolds_gap_exit      = 2 * rho * Q / ((2 * g.reed_length_m + g.reed_width_m) * mu);
+      p.mass_balance_rel_error = r.mass_balance_rel_error;
+      p.n_dofs                 = static_cast<double>(r.n_dofs);
+      p.iterations             = r.iterations;
+      p.wall_time_s            = r.wall_time_s;
+      // Every process holds the root's numbers (the sums are reduced, but
+      // the thin-gap estimate and timings are each process's own).
+      const auto row = mpi.broadcast(p.row());
+      p              = OpeningPoint::from_row(row);
+      if (!(p.R_Pa_s_per_m3 > 0) || !(p.A_eff_m2 > 0))
+        throw std::runtime_error("the Stokes solution at " + format_number(x) + " m gives R = " +
+                                 format_number(p.R_Pa_s_per_m3) + ", A_eff = " + format_number(p.A_eff_m2));
+      if (root)
+        {
+          checkpoint->append(csv_row(row));
+          char what[200];
+          std::snprintf(what, sizeof(what), "%.4g um: R = %.4e Pa s/m^3, A_eff = %.3f mm^2, %.0f DoFs, %.1f s",
+                        x * 1e6, p.R_Pa_s_per_m3, p.A_eff_m2 * 1e6, p.n_dofs, p.wall_time_s);
+          progress.step(what);
+        }
+      return solved[x] = p;
+    };
+    const auto sorted = [&]() {
+      std::vector<OpeningPoint> v;
+      for (const auto &[x, p] : solved)
+        v.push_back(p);
+      return v;
+    };
+
+    // The coarse log grid.
+    for (unsigned k = 0; k < s.initial_openings; ++k)
+      {
+        const double x = k + 1 == s.initial_openings ?
+                           s.to_m :
+                           s.from_m * std::pow(s.to_m / s.from_m, static_cast<double>(k) / (s.initial_openings - 1));
+        solve(x);
+      }
+    // Check every interval by its geometric midpoint; split those that fail.
+    std::vector<std::pair<double, double>> todo;
+    {
+      const auto v = sorted();
+      for (std::size_t i = 0; i + 1 < v.size(); ++i)
+        todo.emplace_back(v[i].opening_m, v[i + 1].opening_m);
+    }
+    while (!todo.empty())
+      {
+        progress.extend(todo.size());
+        std::vector<std::pair<double, double>> next;
+        for (const auto &[a, b] : todo)
+          {
+            if (b / a < s.min_ratio * s.min_ratio || solved.size() >= s.max_openings)
+              {
+                // Too short to split, or out of solves: leave it unchecked but say so.
+                result.checks.push_back({a, b, std::sqrt(a * b), 0, 0, false, true});
+                progress.extend(0);
+                result.converged = false;
+                continue;
+              }
+            const double m = std::sqrt(a * b);
+            const auto [R_interp, A_interp] = interpolate_point(sorted(), m);
+            const OpeningPoint &p = solve(m);
+            const double eR = std::abs(R_interp / p.R_Pa_s_per_m3 - 1);
+            const double eA = std::abs(A_interp / p.A_eff_m2 - 1);
+            const bool   ok = eR <= s.tolerance && eA <= s.tolerance;
+            result.checks.push_back({a, b, m, eR, eA, ok, false});
+            if (ok)
+              {
+                result.max_R_error = std::max(result.max_R_error, eR);
+                result.max_A_error = std::max(result.max_A_error, eA);
+              }
+            else
+              {
+                next.emplace_back(a, m);
+                next.emplace_back(m, b);
+              }
+          }
+        todo = std::move(next);
+      }
+    result.points = sorted();
+    return result;
+  }
+} // namespace rectify::stokes

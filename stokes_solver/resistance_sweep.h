@@ -1,0 +1,84 @@
+// R(x) and A_eff(x) over tip openings, with the openings chosen by accuracy:
+// a coarse log grid, then, wherever the monotone interpolant through the
+// solved openings misses a solved geometric midpoint by more than the
+// tolerance (log R over log x, A_eff over log x: the map set's
+// interpolation), both halves are checked again. Every solve is checkpointed
+// (resumable; the same settings give the same midpoints, so a resumed sweep
+// reuses what it has). Every process of MPI_COMM_WORLD calls it together.
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "mesher/parameters.h"
+#include "stokes_solver/parameters.h"
+#include "stokes_solver/stokes.h"
+
+namespace rectify::stokes
+{
+  struct SweepSettings
+  {
+    double   from_m            = 2e-6;     ///< smallest opening (reference-case.md sec. 1)
+    double   to_m              = 1210e-6;  ///< largest opening
+    unsigned initial_openings  = 5;        ///< the coarse log grid
+    double   tolerance         = 5e-3;     ///< interpolation error allowed in R and A_eff (relative)
+    double   min_ratio         = 1.05;     ///< no interval is split below this opening ratio
+    unsigned max_openings      = 60;       ///< stop refining beyond this many solves
+    static SweepSettings from_case(const CaseFile &file); ///< case table [design]
+    nlohmann::json to_json() const;
+  };
+
+  /// One solved opening.
+  struct OpeningPoint
+  {
+    double opening_m = 0;
+    double R_Pa_s_per_m3 = 0;             ///< (mean p_in - mean p_out) / Q: the map's
+    double R_dissipation_Pa_s_per_m3 = 0; ///< 2 mu e:e / Q^2
+    double reed_force_N = 0;              ///< z component, pressure relative to the outlet's
+    double A_eff_m2 = 0;
+    double pressure_drop_Pa = 0;
+    double R_thin_gap_Pa_s_per_m3 = 0;
+    double reynolds_port = 0, reynolds_gap_exit = 0;
+    double mass_balance_rel_error = 0;
+    double n_dofs = 0, iterations = 0, wall_time_s = 0;
+    static const std::vector<std::string> &columns();
+    std::vector<double> row() const;
+    static OpeningPoint from_row(const std::vector<double> &row);
+  };
+
+  /// One midpoint check: the interpolant without the midpoint against the solve.
+  struct IntervalCheck
+  {
+    double from_m, to_m, midpoint_m, R_error, A_error;
+    bool   passed; ///< both errors within the tolerance
+    bool   limited; ///< failed, but not split further (min_ratio or max_openings)
+  };
+
+  struct SweepResult
+  {
+    std::vector<OpeningPoint>  points; ///< by opening
+    std::vector<IntervalCheck> checks;
+    /// Largest interpolation error among the checks of the final intervals'
+    /// parents that passed (an upper estimate for the final map's error):
+    double      max_R_error = 0, max_A_error = 0;
+    bool        converged = true; ///< no check was left failing
+    std::size_t n_resumed = 0;
+  };
+
+  /// `checkpoint_dir`: the root's checkpoint folder (openings-partial.csv).
+  /// `fingerprint`: what the solves depend on (refuses a checkpoint of others).
+  SweepResult resistance_sweep(const mesher::MeshParameters &mesh, const FlowParameters &flow,
+                               const SweepSettings &settings, const std::filesystem::path &checkpoint_dir,
+                               const nlohmann::json &fingerprint, const MpiSession &mpi);
+
+  /// The interpolation the map set uses, through `points` (by opening),
+  /// evaluated at x: {R, A_eff}.
+  std::pair<double, double> interpolate_point(const std::vector<OpeningPoint> &points, double x);
+
+  /// Thin-gap (Reynolds equation) R for the same valve, shape as the mesher
+  /// samples it, closed where the mesher closes it; grid 10 um.
+  double thin_gap_R(const mesher::MeshParameters &mesh, double closed_to_m, double opening_m, double viscosity_Pa_s);
+} // namespace rectify::stokes
