@@ -9,13 +9,20 @@
 #   mesh-100um                     the valve's fluid mesh at 100 um tip opening (VTU, msh, quality)
 #   flow-100um                     Stokes flow at 100 um: R, force on the reed, thin-gap theory, VTU
 #   diagnosis                      a synthetic run with a hidden valve leak, and `diagnose` naming it
-#   (the whole R(x) map: mpirun --allow-run-as-root -np 2 build/bin/rectify map-resistance --out runs/R-map, ~11 min)
+#   map-set                        the valve's own FE maps (`rectify design`, ~4 min on 2 cores): the reed's
+#                                  k_r, m_r, shape; R(x) and A_eff(x) from Stokes flow on that shape
+#   fe-maps/...                    the chapter-5 runs again, the model on those FE maps (docs/chapter5-comparison.md)
 # Interrupted? Run it again: finished sweep points are kept and not redone.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 rectify=build/bin/rectify
 out=runs/reference
+mpi=(mpirun -np "$(nproc)")
+[ "$(id -u)" -ne 0 ] || mpi=(mpirun --allow-run-as-root -np "$(nproc)")
+
+# The valve's own maps first: every run below is made twice, on the thesis's R(x) and on these.
+"${mpi[@]}" $rectify design --out $out/map-set
 for f in 5 10 25 50; do
   $rectify simulate --scenario no-flow --frequency $f --cycles 5 --out $out/no-flow/trace-${f}Hz
 done
@@ -30,4 +37,15 @@ $rectify stokes --opening 100um --out $out/flow-100um
 $rectify synth --effect valve_leakage --noise 0.01 --seed 1 --frequency 100 --cycles 20 \
   --out $out/diagnosis/data-leak
 $rectify diagnose --data $out/diagnosis/data-leak/data.csv --out $out/diagnosis/result
+# Chapter 5 on the FE maps: R(x), A_eff(x), k_r and m_r from the map set.
+fe=(--map-set $out/map-set)
+for f in 5 10 25 50; do
+  $rectify simulate "${fe[@]}" --scenario no-flow --frequency $f --cycles 5 --out $out/fe-maps/no-flow/trace-${f}Hz
+done
+$rectify sweep "${fe[@]}" --scenario no-flow --current-pp 4 --current-bias 2 --from 1 --to 1200 --n 40 \
+  --spacing log --out $out/fe-maps/no-flow/stored-pressure
+$rectify sweep "${fe[@]}" --scenario loaded --from 10 --to 3500 --n 100 --spacing linear \
+  --out $out/fe-maps/loaded/velocity
+$rectify simulate "${fe[@]}" --scenario loaded --frequency 1420 --cycles 300 --out $out/fe-maps/loaded/trace-1420Hz
+python3 scripts/chapter5_numbers.py $out > $out/chapter5-numbers.md
 echo "reference case done: see $out/*/*/summary.json and the PNG plots beside them"

@@ -18,6 +18,7 @@ packages=(
   libnlopt-dev           # NLopt: the diagnosis workflow's bounded fits (BOBYQA)
   libgtest-dev           # tests
   gnuplot-nox            # plots (PNG and SVG)
+  python3                # scripts/chapter5_numbers.py (the reference run's comparison table)
   libopenblas0-pthread   # fast BLAS for the sparse direct solves of the FE stages
 )
 missing=()

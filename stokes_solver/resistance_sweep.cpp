@@ -28,6 +28,11 @@ namespace rectify::stokes
     if (!(s.to_m > s.from_m))
       throw InputError(f.where(t, "openings_to_m") + " = " + format_number(s.to_m) +
                        ": must exceed openings_from_m = " + format_number(s.from_m));
+    const auto g = ValveGeometry::from_case(f);
+    if (s.to_m >= g.pocket_height_m - g.reed_thickness_m)
+      throw InputError(f.where(t, "openings_to_m") + " = " + format_number(s.to_m) +
+                       ": the reed's top would reach the pocket's ceiling ([geometry] pocket_height_m = " +
+                       format_number(g.pocket_height_m) + ")");
     if (s.max_openings < s.initial_openings)
       throw InputError(f.where(t, "max_openings") + " = " + std::to_string(s.max_openings) +
                        ": below initial_openings = " + std::to_string(s.initial_openings));

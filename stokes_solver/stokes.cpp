@@ -5,6 +5,14 @@
 // FGMRES with PETSc's field split: upper block-triangular Schur
 // factorisation, one hypre BoomerAMG V-cycle on the velocity block, the
 // pressure mass matrix / mu (Jacobi) on the Schur complement.
+//
+// The problem is one class in the shape of deal.II's step-22, on tetrahedra
+// as tests/simplex/stokes-sv.cc: MappingFE with FE_SimplexP(1), FESystem of
+// FE_SimplexP(2)^3 x FE_SimplexP(1), QGaussSimplex. What differs from
+// step-22: no adaptive refinement (the mesher makes the mesh), PETSc and MPI
+// (a fully distributed triangulation from a METIS partition), a scaled
+// pressure unknown, the Laplacian form of the viscous term (the outlet's
+// natural condition), and Navier-Stokes by Newton's method from the Stokes flow.
 #include "stokes_solver/stokes.h"
 
 #include <deal.II/base/function.h>
@@ -165,15 +173,619 @@ namespace rectify::stokes
       InletFrame f_;
       double     a_;
     };
+      /// Integrals of the solution, summed over the processes.
+    struct FlowIntegrals
+    {
+      double       dissipation_W               = 0; ///< integral of 2 mu e(u):e(u)
+      double       gradient_dissipation_W      = 0; ///< integral of mu grad u : grad u
+      double       inlet_pressure_times_area   = 0; ///< integral of p over the inlet
+      double       inlet_area_m2               = 0;
+      double       inlet_flux_m3_per_s         = 0; ///< into the domain
+      double       outlet_pressure_times_area  = 0;
+      double       outlet_area_m2              = 0;
+      double       outlet_flux_m3_per_s        = 0; ///< out of the domain
+      Tensor<1, 3> reed_force_N;                    ///< the fluid's traction on the reed, p relative to p_out
+      double       kinetic_energy_flux_W       = 0; ///< integral of rho |u|^2 / 2 u.n over inlet and outlet
+
+      void sum_over(const MPI_Comm comm)
+      {
+        for (double *v : {&dissipation_W, &gradient_dissipation_W, &inlet_pressure_times_area, &inlet_area_m2,
+                          &inlet_flux_m3_per_s, &outlet_pressure_times_area, &outlet_area_m2, &outlet_flux_m3_per_s,
+                          &kinetic_energy_flux_W})
+          *v = Utilities::MPI::sum(*v, comm);
+        reed_force_N = Utilities::MPI::sum(reed_force_N, comm);
+      }
+    };
+
+    class StokesProblem
+    {
+    public:
+      StokesProblem(const mesher::TetMesh &mesh, const FlowParameters &parameters, bool verbose);
+      StokesResult run(const std::filesystem::path &vtu_dir);
+
+    private:
+      void          make_grid();
+      void          setup_system();
+      void          assemble_system(const PETScWrappers::MPI::Vector *state, bool with_gap_laplace);
+      void          solve();
+      void          make_physical_solution();
+      FlowIntegrals evaluate() const;
+      void          store(const FlowIntegrals &integrals);
+      void          newton_iteration();
+      void          output_results(const std::filesystem::path &vtu_dir) const;
+      void          lap(const char *what);
+
+      // Data, in the order it flows.
+      const mesher::TetMesh &mesh_;
+      const FlowSettings    &settings_;
+      const double           mu_, rho_, Q_;
+      const bool             verbose_;
+      const MPI_Comm         comm_;
+      const unsigned         n_processes_;
+      const bool             root_;
+      const InletFrame       inlet_;
+
+      Triangulation<3>                             serial_triangulation_;
+      parallel::fullydistributed::Triangulation<3> distributed_triangulation_;
+      const Triangulation<3>                      *triangulation_ = nullptr;
+
+      const FESystem<3>                fe_;
+      const MappingFE<3>               mapping_;
+      const QGaussSimplex<3>           quadrature_;
+      const QGaussSimplex<2>           face_quadrature_;
+      const FEValuesExtractors::Vector velocities_;
+      const FEValuesExtractors::Scalar pressure_;
+      DoFHandler<3>                    dof_handler_;
+      IndexSet                         owned_, relevant_, owned_velocity_, owned_pressure_;
+
+      AffineConstraints<double> constraints_;     ///< no slip; the inlet's profile carrying Q
+      AffineConstraints<double> outlet_pressure_; ///< the gap Laplacian vanishes on the outlet
+      bool                      direct_ = false, gap_schur_ = false;
+      std::unique_ptr<GapHeights> gap_heights_;
+      double                    wide_weight_ = 0; ///< the gap Laplacian's weight outside the gap
+      /// The pressure unknown is p / sigma and the continuity equation is
+      /// multiplied by sigma = mu / (mean cell size): both blocks of the
+      /// matrix then have the same scale, and the solver's residual weighs
+      /// the mass balance as much as the momentum.
+      double sigma_ = 0;
+
+      PETScWrappers::MPI::SparseMatrix system_matrix_, preconditioner_matrix_, gap_laplace_matrix_;
+      PETScWrappers::MPI::Vector       system_rhs_, solution_;
+      PETScWrappers::MPI::Vector       physical_solution_; ///< p times sigma, with ghost values
+      PETScWrappers::MPI::Vector       state_;             ///< Newton's linearisation point, ghosted
+
+      StokesResult      result_;
+      Clock::time_point start_, stage_;
+    };
+
+    StokesProblem::StokesProblem(const mesher::TetMesh &mesh, const FlowParameters &parameters, bool verbose)
+      : mesh_(mesh)
+      , settings_(parameters.settings)
+      , mu_(parameters.fluid.viscosity_Pa_s)
+      , rho_(parameters.fluid.density_kg_per_m3)
+      , Q_(parameters.settings.flow_rate_m3_per_s)
+      , verbose_(verbose)
+      , comm_(MPI_COMM_WORLD)
+      , n_processes_(Utilities::MPI::n_mpi_processes(comm_))
+      , root_(Utilities::MPI::this_mpi_process(comm_) == 0)
+      , inlet_(inlet_frame(mesh))
+      , distributed_triangulation_(comm_)
+      , fe_(FE_SimplexP<3>(2), 3, FE_SimplexP<3>(1), 1)
+      , mapping_(FE_SimplexP<3>(1))
+      , quadrature_(3)
+      , face_quadrature_(3)
+      , velocities_(0)
+      , pressure_(3)
+      , start_(Clock::now())
+      , stage_(start_)
+    {
+      result_.n_processes = n_processes_;
+      result_.n_cells     = mesh.cells.size();
+    }
+
+    void StokesProblem::lap(const char *what)
+    {
+      if (verbose_ && root_)
+        std::fprintf(stderr, "  %-28s %.2f s\n", what, seconds_since(stage_));
+      stage_ = Clock::now();
+    }
+
+    // Mesh: serial on every process, partitioned, each keeping its part.
+    void StokesProblem::make_grid()
+    {
+      mesher::fill_triangulation(mesh_, serial_triangulation_);
+      if (n_processes_ > 1)
+        {
+          GridTools::partition_triangulation(n_processes_, serial_triangulation_);
+          distributed_triangulation_.create_triangulation(
+            TriangulationDescription::Utilities::create_description_from_triangulation(serial_triangulation_, comm_));
+          triangulation_ = &distributed_triangulation_;
+        }
+      else
+        triangulation_ = &serial_triangulation_;
+      lap("flow: triangulation");
+    }
+
+    void StokesProblem::setup_system()
+    {
+      dof_handler_.reinit(*triangulation_);
+      dof_handler_.distribute_dofs(fe_);
+      // No component-wise renumbering: in parallel it would make a process's
+      // DoFs non-contiguous; the field split takes the velocity and pressure
+      // DoFs as index sets instead.
+      owned_ = dof_handler_.locally_owned_dofs();
+      DoFTools::extract_locally_relevant_dofs(dof_handler_, relevant_);
+      owned_velocity_         = DoFTools::extract_dofs(dof_handler_, fe_.component_mask(velocities_));
+      owned_pressure_         = DoFTools::extract_dofs(dof_handler_, fe_.component_mask(pressure_));
+      result_.n_dofs          = dof_handler_.n_dofs();
+      result_.n_pressure_dofs = Utilities::MPI::sum(owned_pressure_.n_elements(), comm_);
+      result_.n_velocity_dofs = result_.n_dofs - result_.n_pressure_dofs;
+
+      // Boundary values: no slip on walls and reed first, then the inlet
+      // profile on what is left (its rim stays at zero), scaled to carry Q.
+      std::map<types::global_dof_index, double>         wall_values, inlet_values;
+      std::map<types::boundary_id, const Function<3> *> wall_functions;
+      const Functions::ZeroFunction<3>                  zero(4);
+      wall_functions[mesher::walls] = &zero;
+      wall_functions[mesher::reed]  = &zero;
+      VectorTools::interpolate_boundary_values(mapping_, dof_handler_, wall_functions, wall_values,
+                                               fe_.component_mask(velocities_));
+      const InletProfile unit(inlet_, 1.0);
+      VectorTools::interpolate_boundary_values(mapping_, dof_handler_, mesher::inlet, unit, inlet_values,
+                                               fe_.component_mask(velocities_));
+      for (const auto &[i, v] : wall_values)
+        inlet_values.erase(i);
+
+      // The unit profile's discrete flux, integral of -u.n over the inlet.
+      FEFaceValues<3> face_values(mapping_, fe_, face_quadrature_,
+                                  update_values | update_normal_vectors | update_JxW_values);
+      std::vector<types::global_dof_index> dofs(fe_.n_dofs_per_cell());
+      double                               unit_flux = 0;
+      for (const auto &cell : dof_handler_.active_cell_iterators())
+        if (cell->is_locally_owned())
+          for (const auto f : cell->face_indices())
+            if (cell->face(f)->at_boundary() && cell->face(f)->boundary_id() == mesher::inlet)
+              {
+                face_values.reinit(cell, f);
+                cell->get_dof_indices(dofs);
+                for (unsigned q = 0; q < face_values.n_quadrature_points; ++q)
+                  {
+                    Tensor<1, 3> u;
+                    for (unsigned i = 0; i < dofs.size(); ++i)
+                      if (const auto it = inlet_values.find(dofs[i]); it != inlet_values.end())
+                        u += it->second * face_values[velocities_].value(i, q);
+                    unit_flux -= u * face_values.normal_vector(q) * face_values.JxW(q);
+                  }
+              }
+      unit_flux = Utilities::MPI::sum(unit_flux, comm_);
+      if (!(unit_flux > 0))
+        throw std::runtime_error("the inlet profile carries no flow (inlet too coarse?)");
+      const double amplitude = Q_ / unit_flux;
+
+      constraints_.reinit(relevant_);
+      for (const auto &[i, v] : wall_values)
+        {
+          constraints_.add_line(i);
+          constraints_.set_inhomogeneity(i, 0.0);
+        }
+      for (const auto &[i, v] : inlet_values)
+        {
+          constraints_.add_line(i);
+          constraints_.set_inhomogeneity(i, amplitude * v);
+        }
+      constraints_.close();
+
+      // Velocity components couple only with themselves (the Laplacian form)
+      // and with the pressure; leaving the zero blocks out of the pattern
+      // keeps them out of the AMG hierarchy and the direct solver's factors.
+      // Navier-Stokes's linearised convection couples them all.
+      DynamicSparsityPattern       dsp(relevant_);
+      Table<2, DoFTools::Coupling> coupling(4, 4);
+      for (unsigned i = 0; i < 4; ++i)
+        for (unsigned j = 0; j < 4; ++j)
+          coupling(i, j) =
+            i == j || i == 3 || j == 3 || settings_.navier_stokes ? DoFTools::always : DoFTools::none;
+      DoFTools::make_sparsity_pattern(dof_handler_, coupling, dsp, constraints_, false);
+      SparsityTools::distribute_sparsity_pattern(dsp, owned_, comm_, relevant_);
+      system_matrix_.reinit(owned_, owned_, dsp, comm_);
+      direct_ = settings_.solver == "direct" ||
+                (settings_.solver == "auto" && result_.n_dofs <= static_cast<std::size_t>(settings_.direct_max_dofs));
+      gap_schur_ = !direct_ && settings_.schur == "gap";
+      if (!direct_)
+        preconditioner_matrix_.reinit(owned_, owned_, dsp, comm_);
+      if (gap_schur_)
+        {
+          // The gap Laplacian (pressure block only) vanishes on the outlet's
+          // pressure DoFs, where the traction fixes the pressure.
+          gap_laplace_matrix_.reinit(owned_, owned_, dsp, comm_);
+          std::map<types::global_dof_index, double> outlet_values;
+          VectorTools::interpolate_boundary_values(mapping_, dof_handler_, mesher::outlet, zero, outlet_values,
+                                                   fe_.component_mask(pressure_));
+          outlet_pressure_.reinit(relevant_);
+          for (const auto &[i, v] : outlet_values)
+            outlet_pressure_.add_line(i);
+          outlet_pressure_.close();
+          gap_heights_ = std::make_unique<GapHeights>(mesh_);
+          Point<3> lo(mesh_.vertices[0][0], mesh_.vertices[0][1], mesh_.vertices[0][2]), hi = lo;
+          for (const auto &v : mesh_.vertices)
+            for (int d = 0; d < 3; ++d)
+              lo[d] = std::min(lo[d], v[d]), hi[d] = std::max(hi[d], v[d]);
+          wide_weight_ = lo.distance_square(hi) / mu_;
+        }
+      system_rhs_.reinit(owned_, comm_);
+      solution_.reinit(owned_, comm_);
+      physical_solution_.reinit(owned_, relevant_, comm_);
+      state_.reinit(owned_, relevant_, comm_);
+
+      double volume = 0;
+      for (std::size_t c = 0; c < mesh_.cells.size(); ++c)
+        volume += mesher::cell_volume(mesh_, c);
+      sigma_ = mu_ / std::cbrt(volume / static_cast<double>(mesh_.cells.size()));
+
+      result_.setup_time_s = seconds_since(start_);
+      lap("flow: set-up");
+      if (verbose_ && root_)
+        std::fprintf(stderr, "  %zu DoFs (%zu velocity, %zu pressure) on %u process(es)\n", result_.n_dofs,
+                     result_.n_velocity_dofs, result_.n_pressure_dofs, n_processes_);
+    }
+
+    // The block system, in the scaled unknowns (u, p / sigma):
+    //
+    //   [ A        sigma B^T ] [ u         ]   [ f ]
+    //   [ sigma B  0         ] [ p / sigma ] = [ 0 ]
+    //
+    // with the weak form's terms
+    //   A:  (mu grad u, grad v)  the Laplacian form: its natural outlet condition
+    //       (mu grad u - p I) n = -p_out n lets fully developed flow leave
+    //       undisturbed, which the symmetric-gradient form's does not
+    //   B^T: -(p, div v)         B: -(q, div u)
+    //   f:  -(p_out n, v) on the outlet (the traction)
+    // The preconditioner matrix has -(1/mu)(p, q) (scaled by sigma^2) in place
+    // of the zero block; the gap Laplacian (sigma^2 h^2 / (12 mu))(grad p, grad q)
+    // is assembled for the "gap" Schur preconditioner.
+    // With `state` (Newton's step for Navier-Stokes), the convection in
+    // skew-symmetric form, rho (u.grad)u + rho/2 (div u) u (the same for the
+    // exact, divergence-free flow; for the discrete one it makes the
+    // convection's work exactly the kinetic energy flux through the boundary,
+    // so the energy balance holds), linearised about the state's velocity w:
+    //   rho [(w.grad)u + (u.grad)w + (div w) u / 2 + (div u) w / 2] on the left,
+    //   rho [(w.grad)w + (div w) w / 2] on the right.
+    void StokesProblem::assemble_system(const PETScWrappers::MPI::Vector *state, bool with_gap_laplace)
+    {
+      system_matrix_ = 0;
+      system_rhs_    = 0;
+      if (!direct_)
+        preconditioner_matrix_ = 0;
+      FEValues<3>     fe_values(mapping_, fe_, quadrature_, update_values | update_gradients | update_JxW_values);
+      FEFaceValues<3> fe_face_values(mapping_, fe_, face_quadrature_,
+                                     update_values | update_normal_vectors | update_JxW_values);
+      const unsigned  dofs_per_cell = fe_.n_dofs_per_cell();
+      FullMatrix<double> local_matrix(dofs_per_cell, dofs_per_cell), local_preconditioner(dofs_per_cell, dofs_per_cell),
+        local_gap_laplace(dofs_per_cell, dofs_per_cell);
+      Vector<double>                       local_rhs(dofs_per_cell);
+      std::vector<types::global_dof_index> local_dof_indices(dofs_per_cell);
+      // Each shape function has one non-zero component: velocity functions
+      // couple through mu grad.grad only with the same component, and with
+      // pressure functions through the divergence (that component's derivative).
+      std::vector<unsigned> component(dofs_per_cell);
+      for (unsigned i = 0; i < dofs_per_cell; ++i)
+        component[i] = fe_.system_to_component_index(i).first;
+      std::vector<Tensor<1, 3>> grad_phi(dofs_per_cell);
+      std::vector<double>       phi(dofs_per_cell);
+      std::vector<Tensor<1, 3>> w(quadrature_.size());
+      std::vector<Tensor<2, 3>> grad_w(quadrature_.size());
+      const double              p_out = settings_.outlet_pressure_Pa;
+
+      for (const auto &cell : dof_handler_.active_cell_iterators())
+        if (cell->is_locally_owned())
+          {
+            fe_values.reinit(cell);
+            local_matrix = 0, local_preconditioner = 0, local_rhs = 0, local_gap_laplace = 0;
+            if (state != nullptr)
+              {
+                fe_values[velocities_].get_function_values(*state, w);
+                fe_values[velocities_].get_function_gradients(*state, grad_w);
+              }
+            // The cell's weight in the gap Laplacian (sigma^2 from the scaling).
+            double gap_weight = 0;
+            if (with_gap_laplace)
+              {
+                const double h = cell->material_id() == mesher::gap ? gap_heights_->of(cell) : 0.0;
+                gap_weight     = sigma_ * sigma_ * (h > 0 ? h * h / (12 * mu_) : wide_weight_);
+              }
+            for (unsigned q = 0; q < fe_values.n_quadrature_points; ++q)
+              {
+                const double dx    = fe_values.JxW(q);
+                const double div_w = state != nullptr ? trace(grad_w[q]) : 0.0;
+                for (unsigned i = 0; i < dofs_per_cell; ++i)
+                  {
+                    grad_phi[i] = fe_values.shape_grad_component(i, q, component[i]);
+                    phi[i]      = fe_values.shape_value_component(i, q, component[i]);
+                  }
+                for (unsigned i = 0; i < dofs_per_cell; ++i)
+                  {
+                    const unsigned ci = component[i];
+                    // f (Newton): rho [(w.grad)w + (div w) w / 2] . v
+                    if (state != nullptr && ci < 3)
+                      local_rhs(i) += rho_ * (w[q] * grad_w[q][ci] + 0.5 * div_w * w[q][ci]) * phi[i] * dx;
+                    for (unsigned j = 0; j < dofs_per_cell; ++j)
+                      {
+                        const unsigned cj    = component[j];
+                        double         value = 0;
+                        if (ci < 3 && cj < 3)
+                          {
+                            // convection (Newton): rho [(w.grad)u + (div w) u/2 + (u.grad)w + (div u) w/2] . v
+                            if (state != nullptr)
+                              value = rho_ *
+                                      ((ci == cj ? w[q] * grad_phi[j] + 0.5 * div_w * phi[j] : 0.0) +
+                                       phi[j] * grad_w[q][ci][cj] + 0.5 * grad_phi[j][cj] * w[q][ci]) *
+                                      phi[i] * dx;
+                            // A: (mu grad u, grad v)
+                            if (ci == cj)
+                              value += mu_ * (grad_phi[i] * grad_phi[j]) * dx;
+                            else if (state == nullptr)
+                              continue;
+                          }
+                        else if (ci < 3) // sigma B^T: -(p, div v)
+                          value = -sigma_ * grad_phi[i][ci] * phi[j] * dx;
+                        else if (cj < 3) // sigma B: -(q, div u)
+                          value = -sigma_ * phi[i] * grad_phi[j][cj] * dx;
+                        else
+                          {
+                            // preconditioner: -(1/mu)(p, q); the gap Laplacian
+                            local_preconditioner(i, j) -= sigma_ * sigma_ * phi[i] * phi[j] / mu_ * dx;
+                            local_gap_laplace(i, j) += gap_weight * (grad_phi[i] * grad_phi[j]) * dx;
+                            continue;
+                          }
+                        local_matrix(i, j) += value;
+                        local_preconditioner(i, j) += value;
+                      }
+                  }
+              }
+            // f: -(p_out n, v) on the outlet
+            for (const auto f : cell->face_indices())
+              if (cell->face(f)->at_boundary() && cell->face(f)->boundary_id() == mesher::outlet)
+                {
+                  fe_face_values.reinit(cell, f);
+                  for (unsigned q = 0; q < fe_face_values.n_quadrature_points; ++q)
+                    for (unsigned i = 0; i < dofs_per_cell; ++i)
+                      local_rhs(i) -= p_out *
+                                      (fe_face_values[velocities_].value(i, q) * fe_face_values.normal_vector(q)) *
+                                      fe_face_values.JxW(q);
+                }
+            cell->get_dof_indices(local_dof_indices);
+            constraints_.distribute_local_to_global(local_matrix, local_rhs, local_dof_indices, system_matrix_,
+                                                    system_rhs_);
+            if (!direct_)
+              constraints_.distribute_local_to_global(local_preconditioner, local_dof_indices, preconditioner_matrix_);
+            if (with_gap_laplace)
+              outlet_pressure_.distribute_local_to_global(local_gap_laplace, local_dof_indices, gap_laplace_matrix_);
+          }
+      system_matrix_.compress(VectorOperation::add);
+      if (!direct_)
+        preconditioner_matrix_.compress(VectorOperation::add);
+      if (with_gap_laplace)
+        gap_laplace_matrix_.compress(VectorOperation::add);
+      system_rhs_.compress(VectorOperation::add);
+    }
+
+    // One linear solve of the assembled system into solution_.
+    void StokesProblem::solve()
+    {
+      if (direct_)
+        {
+          // MUMPS with iterative refinement: a thin gap makes the matrix
+          // ill-conditioned (a 5 um gap under mm-sized cells), and the plain
+          // factorisation's R carries round-off of ~1e-8 there (one and two
+          // processes then differ by that much); up to 10 refinement steps,
+          // to a backward error of 1e-16, bring it to the residual's own
+          // round-off (docs/stokes.md). PETSC_OPTIONS still overrides both.
+          for (const auto &[name, value] : {std::pair{"-mat_mumps_icntl_10", "10"}, std::pair{"-mat_mumps_cntl_2", "1e-16"}})
+            {
+              PetscBool set = PETSC_FALSE;
+              PetscOptionsHasName(nullptr, nullptr, name, &set);
+              if (!set)
+                PetscOptionsSetValue(nullptr, name, value);
+            }
+          SolverControl                    control(1, 0);
+          PETScWrappers::SparseDirectMUMPS mumps(control, comm_);
+          mumps.solve(system_matrix_, solution_, system_rhs_);
+          result_.solver = "direct (MUMPS)";
+          result_.iterations += 1;
+        }
+      else
+        {
+          const std::vector<PetscInt> velocity(owned_velocity_.begin(), owned_velocity_.end()),
+            pressure(owned_pressure_.begin(), owned_pressure_.end());
+          BlockSolverSettings b;
+          b.tolerance      = settings_.tolerance;
+          b.max_iterations = settings_.max_iterations;
+          b.verbose        = verbose_;
+          result_.iterations += solve_block_system(system_matrix_.petsc_matrix(), preconditioner_matrix_.petsc_matrix(),
+                                                   gap_schur_ ? gap_laplace_matrix_.petsc_matrix() : nullptr,
+                                                   system_rhs_, solution_, velocity, pressure, b);
+          result_.solver = block_solver_name(gap_schur_);
+        }
+      if (!std::isfinite(solution_.l2_norm()))
+        throw std::runtime_error("the Stokes solver (" + result_.solver + ") returned a non-finite solution (" +
+                                 std::to_string(result_.n_dofs) + " DoFs); nothing is reported");
+      constraints_.distribute(solution_);
+    }
+
+    // The physical solution (pressure times sigma) with ghost values.
+    void StokesProblem::make_physical_solution()
+    {
+      PETScWrappers::MPI::Vector scaled = solution_;
+      for (const auto i : owned_pressure_)
+        scaled(i) *= sigma_;
+      scaled.compress(VectorOperation::insert);
+      physical_solution_ = scaled;
+    }
+
+    FlowIntegrals StokesProblem::evaluate() const
+    {
+      FEValues<3>     fe_values(mapping_, fe_, quadrature_, update_gradients | update_JxW_values);
+      FEFaceValues<3> fe_face_values(mapping_, fe_, face_quadrature_,
+                                     update_values | update_gradients | update_normal_vectors | update_JxW_values);
+      std::vector<SymmetricTensor<2, 3>> strain(quadrature_.size()), face_strain(face_quadrature_.size());
+      std::vector<Tensor<2, 3>>          grad_u(quadrature_.size());
+      std::vector<Tensor<1, 3>>          face_u(face_quadrature_.size());
+      std::vector<double>                face_p(face_quadrature_.size());
+      FlowIntegrals                      s;
+      for (const auto &cell : dof_handler_.active_cell_iterators())
+        if (cell->is_locally_owned())
+          {
+            fe_values.reinit(cell);
+            fe_values[velocities_].get_function_symmetric_gradients(physical_solution_, strain);
+            fe_values[velocities_].get_function_gradients(physical_solution_, grad_u);
+            for (unsigned q = 0; q < quadrature_.size(); ++q)
+              {
+                s.dissipation_W += 2 * mu_ * (strain[q] * strain[q]) * fe_values.JxW(q);
+                s.gradient_dissipation_W += mu_ * scalar_product(grad_u[q], grad_u[q]) * fe_values.JxW(q);
+              }
+            for (const auto f : cell->face_indices())
+              if (cell->face(f)->at_boundary())
+                {
+                  const auto id = cell->face(f)->boundary_id();
+                  if (id == mesher::walls)
+                    continue;
+                  fe_face_values.reinit(cell, f);
+                  fe_face_values[velocities_].get_function_values(physical_solution_, face_u);
+                  fe_face_values[velocities_].get_function_symmetric_gradients(physical_solution_, face_strain);
+                  fe_face_values[pressure_].get_function_values(physical_solution_, face_p);
+                  for (unsigned q = 0; q < face_quadrature_.size(); ++q)
+                    {
+                      const double dA = fe_face_values.JxW(q);
+                      const auto  &n  = fe_face_values.normal_vector(q);
+                      if (id == mesher::inlet || id == mesher::outlet)
+                        s.kinetic_energy_flux_W += 0.5 * rho_ * face_u[q].norm_square() * (face_u[q] * n) * dA;
+                      if (id == mesher::inlet)
+                        {
+                          s.inlet_pressure_times_area += face_p[q] * dA;
+                          s.inlet_area_m2 += dA;
+                          s.inlet_flux_m3_per_s -= face_u[q] * n * dA;
+                        }
+                      else if (id == mesher::outlet)
+                        {
+                          s.outlet_pressure_times_area += face_p[q] * dA;
+                          s.outlet_area_m2 += dA;
+                          s.outlet_flux_m3_per_s += face_u[q] * n * dA;
+                        }
+                      else // the reed: the fluid's force on it, -sigma n with n out of the fluid
+                        s.reed_force_N += ((face_p[q] - settings_.outlet_pressure_Pa) * n -
+                                           2 * mu_ * (face_strain[q] * n)) * dA;
+                    }
+                }
+          }
+      s.sum_over(comm_);
+      return s;
+    }
+
+    void StokesProblem::store(const FlowIntegrals &s)
+    {
+      StokesResult &r = result_;
+      r.R_gradient_dissipation_Pa_s_per_m3 = s.gradient_dissipation_W / (Q_ * Q_);
+      r.kinetic_energy_flux_W              = s.kinetic_energy_flux_W;
+      r.inlet_area_m2                      = s.inlet_area_m2;
+      r.outlet_area_m2                     = s.outlet_area_m2;
+      r.inlet_pressure_Pa                  = s.inlet_pressure_times_area / s.inlet_area_m2;
+      r.outlet_pressure_Pa                 = s.outlet_pressure_times_area / s.outlet_area_m2;
+      r.inlet_flux_m3_per_s                = s.inlet_flux_m3_per_s;
+      r.outlet_flux_m3_per_s               = s.outlet_flux_m3_per_s;
+      r.mass_balance_rel_error             = std::abs(s.outlet_flux_m3_per_s - s.inlet_flux_m3_per_s) / Q_;
+      r.R_pressure_Pa_s_per_m3             = (r.inlet_pressure_Pa - r.outlet_pressure_Pa) / Q_;
+      r.R_dissipation_Pa_s_per_m3          = s.dissipation_W / (Q_ * Q_);
+      for (int d = 0; d < 3; ++d)
+        r.reed_force_N[d] = s.reed_force_N[d];
+      r.A_eff_m2 = r.reed_force_N[2] / (r.inlet_pressure_Pa - r.outlet_pressure_Pa);
+      for (double v : {r.R_pressure_Pa_s_per_m3, r.R_dissipation_Pa_s_per_m3, r.mass_balance_rel_error, r.A_eff_m2})
+        if (!std::isfinite(v))
+          throw std::runtime_error("the Stokes solution gives a non-finite result (" + r.solver + ", " +
+                                   std::to_string(r.n_dofs) + " DoFs); nothing is reported");
+    }
+
+    // Navier-Stokes: Newton steps from the Stokes flow until R settles.
+    void StokesProblem::newton_iteration()
+    {
+      double change = 1;
+      while (change > settings_.newton_tolerance)
+        {
+          if (result_.newton_iterations == static_cast<unsigned>(settings_.newton_max_iterations))
+            throw std::runtime_error("Newton's method for Navier-Stokes did not converge in " +
+                                     std::to_string(settings_.newton_max_iterations) + " steps (relative change " +
+                                     format_number(change) + "; Re too high for a steady flow?)");
+          state_                = solution_;
+          const double previous = result_.R_pressure_Pa_s_per_m3;
+          auto         t        = Clock::now();
+          assemble_system(&state_, false);
+          result_.assembly_time_s += seconds_since(t);
+          t = Clock::now();
+          try
+            {
+              solve();
+            }
+          catch (const std::runtime_error &e)
+            {
+              throw std::runtime_error(std::string(e.what()) + " in Newton step " +
+                                       std::to_string(result_.newton_iterations + 1) +
+                                       " of Navier-Stokes: the Schur preconditioner ignores convection; at "
+                                       "higher Reynolds numbers use [flow] solver = \"direct\"");
+            }
+          result_.solve_time_s += seconds_since(t);
+          make_physical_solution();
+          store(evaluate());
+          ++result_.newton_iterations;
+          change = std::abs(result_.R_pressure_Pa_s_per_m3 / previous - 1);
+          if (verbose_ && root_)
+            std::fprintf(stderr, "  Newton step %u: R %.9e (change %.1e)\n", result_.newton_iterations,
+                         result_.R_pressure_Pa_s_per_m3, change);
+        }
+    }
+
+    void StokesProblem::output_results(const std::filesystem::path &vtu_dir) const
+    {
+      DataOut<3> data_out;
+      data_out.attach_dof_handler(dof_handler_);
+      std::vector<std::string> names{"velocity", "velocity", "velocity", "pressure"};
+      std::vector<DataComponentInterpretation::DataComponentInterpretation> kinds(
+        3, DataComponentInterpretation::component_is_part_of_vector);
+      kinds.push_back(DataComponentInterpretation::component_is_scalar);
+      data_out.add_data_vector(physical_solution_, names, DataOut<3>::type_dof_data, kinds);
+      data_out.build_patches(mapping_);
+      data_out.write_vtu_with_pvtu_record(vtu_dir.string() + "/", "flow", 0, comm_, 0, 0);
+    }
+
+    StokesResult StokesProblem::run(const std::filesystem::path &vtu_dir)
+    {
+      make_grid();
+      setup_system();
+      auto t = Clock::now();
+      assemble_system(nullptr, gap_schur_);
+      result_.assembly_time_s = seconds_since(t);
+      lap("flow: assembly");
+      t = Clock::now();
+      solve();
+      result_.solve_time_s = seconds_since(t);
+      lap(direct_ ? "flow: solve (MUMPS)" : "flow: solve (FGMRES)");
+      make_physical_solution();
+      store(evaluate());
+      result_.stokes_R_Pa_s_per_m3                      = result_.R_pressure_Pa_s_per_m3;
+      result_.stokes_R_gradient_dissipation_Pa_s_per_m3 = result_.R_gradient_dissipation_Pa_s_per_m3;
+      if (settings_.navier_stokes)
+        newton_iteration();
+      if (!vtu_dir.empty())
+        output_results(vtu_dir);
+      result_.wall_time_s = seconds_since(start_);
+      return result_;
+    }
   } // namespace
 
   StokesResult solve_stokes(const mesher::TetMesh &mesh, const FlowParameters &parameters,
                             const std::filesystem::path &vtu_dir, bool verbose)
   {
-    const auto   start = Clock::now();
-    const auto  &s     = parameters.settings;
-    const double mu    = parameters.fluid.viscosity_Pa_s;
-    const double Q     = s.flow_rate_m3_per_s;
+    const auto  &s  = parameters.settings;
+    const double mu = parameters.fluid.viscosity_Pa_s;
+    const double Q  = s.flow_rate_m3_per_s;
     if (!(mu > 0) || !std::isfinite(mu))
       throw InputError("[fluid] viscosity_Pa_s = " + format_number(mu) + ": must be positive");
     if (!(Q > 0) || !std::isfinite(Q))
@@ -188,457 +800,7 @@ namespace rectify::stokes
       }
     if (!has_outlet)
       throw InputError("the mesh has no outlet (no boundary face with id 2)");
-    const InletFrame frame = inlet_frame(mesh);
-
-    const MPI_Comm comm    = MPI_COMM_WORLD;
-    const unsigned n_procs = Utilities::MPI::n_mpi_processes(comm);
-    const bool     root    = Utilities::MPI::this_mpi_process(comm) == 0;
-    auto           stage   = Clock::now();
-    const auto     lap     = [&](const char *what) {
-      if (verbose && root)
-        std::fprintf(stderr, "  %-28s %.2f s\n", what, seconds_since(stage));
-      stage = Clock::now();
-    };
-    StokesResult   r;
-    r.n_processes = n_procs;
-    r.n_cells     = mesh.cells.size();
-
-    // Mesh: serial on every process, partitioned, each keeping its part.
-    Triangulation<3> serial;
-    mesher::fill_triangulation(mesh, serial);
-    parallel::fullydistributed::Triangulation<3> distributed(comm);
-    if (n_procs > 1)
-      {
-        GridTools::partition_triangulation(n_procs, serial);
-        distributed.create_triangulation(
-          TriangulationDescription::Utilities::create_description_from_triangulation(serial, comm));
-      }
-    const Triangulation<3> &tria = n_procs > 1 ? static_cast<const Triangulation<3> &>(distributed) : serial;
-    lap("flow: triangulation");
-
-    const FESystem<3>   fe(FE_SimplexP<3>(2), 3, FE_SimplexP<3>(1), 1);
-    const MappingFE<3>  mapping(FE_SimplexP<3>(1));
-    const QGaussSimplex<3> quadrature(3);
-    const QGaussSimplex<2> face_quadrature(3);
-    const FEValuesExtractors::Vector velocities(0);
-    const FEValuesExtractors::Scalar pressure(3);
-
-    DoFHandler<3> dof(tria);
-    dof.distribute_dofs(fe);
-    // No component-wise renumbering: in parallel it would make a process's
-    // DoFs non-contiguous; the field split takes the velocity and pressure
-    // DoFs as index sets instead.
-    const IndexSet owned    = dof.locally_owned_dofs();
-    IndexSet       relevant;
-    DoFTools::extract_locally_relevant_dofs(dof, relevant);
-    const IndexSet owned_u = DoFTools::extract_dofs(dof, fe.component_mask(velocities));
-    const IndexSet owned_p = DoFTools::extract_dofs(dof, fe.component_mask(pressure));
-    r.n_dofs          = dof.n_dofs();
-    r.n_pressure_dofs = Utilities::MPI::sum(owned_p.n_elements(), comm);
-    r.n_velocity_dofs = r.n_dofs - r.n_pressure_dofs;
-
-    // Boundary values: no slip on walls and reed first, then the inlet
-    // profile on what is left (its rim stays at zero), scaled to carry Q.
-    std::map<types::global_dof_index, double> wall_values, inlet_values;
-    std::map<types::boundary_id, const Function<3> *> wall_functions;
-    Functions::ZeroFunction<3> zero(4);
-    wall_functions[mesher::walls] = &zero;
-    wall_functions[mesher::reed]  = &zero;
-    VectorTools::interpolate_boundary_values(mapping, dof, wall_functions, wall_values,
-                                             fe.component_mask(velocities));
-    const InletProfile unit(frame, 1.0);
-    VectorTools::interpolate_boundary_values(mapping, dof, mesher::inlet, unit, inlet_values,
-                                             fe.component_mask(velocities));
-    for (const auto &[i, v] : wall_values)
-      inlet_values.erase(i);
-
-    FEFaceValues<3> face_values(mapping, fe, face_quadrature,
-                                update_values | update_gradients | update_normal_vectors |
-                                  update_JxW_values);
-    std::vector<types::global_dof_index> dofs(fe.n_dofs_per_cell());
-    double unit_flux = 0;
-    for (const auto &cell : dof.active_cell_iterators())
-      if (cell->is_locally_owned())
-        for (const auto f : cell->face_indices())
-          if (cell->face(f)->at_boundary() && cell->face(f)->boundary_id() == mesher::inlet)
-            {
-              face_values.reinit(cell, f);
-              cell->get_dof_indices(dofs);
-              for (unsigned q = 0; q < face_values.n_quadrature_points; ++q)
-                {
-                  Tensor<1, 3> u;
-                  for (unsigned i = 0; i < dofs.size(); ++i)
-                    if (const auto it = inlet_values.find(dofs[i]); it != inlet_values.end())
-                      u += it->second * face_values[velocities].value(i, q);
-                  unit_flux -= u * face_values.normal_vector(q) * face_values.JxW(q);
-                }
-            }
-    unit_flux = Utilities::MPI::sum(unit_flux, comm);
-    if (!(unit_flux > 0))
-      throw std::runtime_error("the inlet profile carries no flow (inlet too coarse?)");
-    const double amplitude = Q / unit_flux;
-
-    AffineConstraints<double> constraints(relevant);
-    for (const auto &[i, v] : wall_values)
-      {
-        constraints.add_line(i);
-        constraints.set_inhomogeneity(i, 0.0);
-      }
-    for (const auto &[i, v] : inlet_values)
-      {
-        constraints.add_line(i);
-        constraints.set_inhomogeneity(i, amplitude * v);
-      }
-    constraints.close();
-
-    DynamicSparsityPattern dsp(relevant);
-    // Velocity components couple only with themselves (the Laplacian form)
-    // and with the pressure; leaving the zero blocks out of the pattern
-    // keeps them out of the AMG hierarchy and the direct solver's factors.
-    // Navier-Stokes's linearised convection couples them all.
-    Table<2, DoFTools::Coupling> coupling(4, 4);
-    for (unsigned i = 0; i < 4; ++i)
-      for (unsigned j = 0; j < 4; ++j)
-        coupling(i, j) = i == j || i == 3 || j == 3 || s.navier_stokes ? DoFTools::always : DoFTools::none;
-    DoFTools::make_sparsity_pattern(dof, coupling, dsp, constraints, false);
-    SparsityTools::distribute_sparsity_pattern(dsp, owned, comm, relevant);
-    PETScWrappers::MPI::SparseMatrix system, preconditioner, gap_laplace;
-    system.reinit(owned, owned, dsp, comm);
-    const bool direct = s.solver == "direct" || (s.solver == "auto" && r.n_dofs <= static_cast<std::size_t>(s.direct_max_dofs));
-    const bool gap_schur = !direct && s.schur == "gap";
-    if (!direct)
-      preconditioner.reinit(owned, owned, dsp, comm);
-    // The gap Laplacian (pressure block only) vanishes on the outlet's
-    // pressure DoFs, where the traction fixes the pressure.
-    AffineConstraints<double> outlet_pressure(relevant);
-    std::unique_ptr<GapHeights> gap_heights;
-    double                    wide_weight = 0;
-    if (gap_schur)
-      {
-        gap_laplace.reinit(owned, owned, dsp, comm);
-        std::map<types::global_dof_index, double> outlet_values;
-        VectorTools::interpolate_boundary_values(mapping, dof, mesher::outlet, zero, outlet_values,
-                                                 fe.component_mask(pressure));
-        for (const auto &[i, v] : outlet_values)
-          outlet_pressure.add_line(i);
-        outlet_pressure.close();
-        gap_heights = std::make_unique<GapHeights>(mesh);
-        Point<3> lo = Point<3>(mesh.vertices[0][0], mesh.vertices[0][1], mesh.vertices[0][2]), hi = lo;
-        for (const auto &v : mesh.vertices)
-          for (int d = 0; d < 3; ++d)
-            lo[d] = std::min(lo[d], v[d]), hi[d] = std::max(hi[d], v[d]);
-        wide_weight = lo.distance_square(hi) / mu;
-      }
-    PETScWrappers::MPI::Vector rhs(owned, comm), solution(owned, comm);
-    r.setup_time_s = seconds_since(start);
-    lap("flow: set-up");
-    if (verbose && root)
-      std::fprintf(stderr, "  %zu DoFs (%zu velocity, %zu pressure) on %u process(es)\n", r.n_dofs,
-                   r.n_velocity_dofs, r.n_pressure_dofs, n_procs);
-
-    // The pressure unknown is p / sigma and the continuity equation is
-    // multiplied by sigma = mu / (mean cell size): both blocks of the matrix
-    // then have the same scale, and the solver's residual weighs the mass
-    // balance as much as the momentum.
-    double volume = 0;
-    for (std::size_t c = 0; c < mesh.cells.size(); ++c)
-      volume += mesher::cell_volume(mesh, c);
-    const double sigma = mu / std::cbrt(volume / static_cast<double>(mesh.cells.size()));
-    const double rho   = parameters.fluid.density_kg_per_m3;
-
-    // Assembly: mu grad u : grad v - p div v - q div u (the Laplacian form,
-    // the same flow inside for constant mu; its natural outlet condition
-    // (mu grad u - p I) n = -p_out n lets fully developed flow leave
-    // undisturbed, which the symmetric-gradient form's does not); the
-    // preconditioner matrix has -(1/mu) p q in place of the zero pressure
-    // block. With `state` (Newton's step for Navier-Stokes), the convection
-    // in skew-symmetric form, rho (u.grad)u + rho/2 (div u) u (the same for
-    // the exact, divergence-free flow; for the discrete one it makes the
-    // convection's work exactly the kinetic energy flux through the
-    // boundary, so the energy balance holds), linearised about the state's
-    // velocity w: rho [(w.grad)u + (u.grad)w + (div w) u / 2 + (div u) w / 2]
-    // on the left, rho [(w.grad)w + (div w) w / 2] on the right.
-    const auto assemble = [&](const PETScWrappers::MPI::Vector *state, bool with_gap_laplace) {
-      system = 0;
-      rhs    = 0;
-      if (!direct)
-        preconditioner = 0;
-      FEValues<3> values(mapping, fe, quadrature, update_values | update_gradients | update_JxW_values);
-      const unsigned n = fe.n_dofs_per_cell();
-      FullMatrix<double> local(n, n), local_prec(n, n), local_laplace(n, n);
-      Vector<double>     local_rhs(n);
-      // Each shape function has one non-zero component: velocity functions
-      // couple through mu grad.grad only with the same component, and with
-      // pressure functions through the divergence (that component's derivative).
-      std::vector<unsigned> component(n);
-      for (unsigned i = 0; i < n; ++i)
-        component[i] = fe.system_to_component_index(i).first;
-      std::vector<Tensor<1, 3>> grad(n);
-      std::vector<double>       phi(n);
-      std::vector<Tensor<1, 3>> w(quadrature.size());
-      std::vector<Tensor<2, 3>> grad_w(quadrature.size());
-      const double p_out = s.outlet_pressure_Pa;
-      for (const auto &cell : dof.active_cell_iterators())
-        if (cell->is_locally_owned())
-          {
-            values.reinit(cell);
-            local = 0, local_prec = 0, local_rhs = 0, local_laplace = 0;
-            if (state != nullptr)
-              {
-                values[velocities].get_function_values(*state, w);
-                values[velocities].get_function_gradients(*state, grad_w);
-              }
-            // The cell's weight in the gap Laplacian (sigma^2 from the scaling).
-            double weight = 0;
-            if (with_gap_laplace)
-              {
-                const double h = cell->material_id() == mesher::gap ? gap_heights->of(cell) : 0.0;
-                weight = sigma * sigma * (h > 0 ? h * h / (12 * mu) : wide_weight);
-              }
-            for (unsigned q = 0; q < values.n_quadrature_points; ++q)
-              {
-                const double dx    = values.JxW(q);
-                const double div_w = state != nullptr ? trace(grad_w[q]) : 0.0;
-                for (unsigned i = 0; i < n; ++i)
-                  {
-                    grad[i] = values.shape_grad_component(i, q, component[i]);
-                    phi[i]  = values.shape_value_component(i, q, component[i]);
-                  }
-                for (unsigned i = 0; i < n; ++i)
-                  {
-                    const unsigned ci = component[i];
-                    if (state != nullptr && ci < 3)
-                      local_rhs(i) += rho * (w[q] * grad_w[q][ci] + 0.5 * div_w * w[q][ci]) * phi[i] * dx;
-                    for (unsigned j = 0; j < n; ++j)
-                      {
-                        const unsigned cj = component[j];
-                        double         a  = 0;
-                        if (ci < 3 && cj < 3)
-                          {
-                            if (state != nullptr)
-                              a = rho *
-                                  ((ci == cj ? w[q] * grad[j] + 0.5 * div_w * phi[j] : 0.0) +
-                                   phi[j] * grad_w[q][ci][cj] + 0.5 * grad[j][cj] * w[q][ci]) *
-                                  phi[i] * dx;
-                            if (ci == cj)
-                              a += mu * (grad[i] * grad[j]) * dx;
-                            else if (state == nullptr)
-                              continue;
-                          }
-                        else if (ci < 3)
-                          a = -sigma * grad[i][ci] * phi[j] * dx;
-                        else if (cj < 3)
-                          a = -sigma * phi[i] * grad[j][cj] * dx;
-                        else
-                          {
-                            local_prec(i, j) -= sigma * sigma * phi[i] * phi[j] / mu * dx;
-                            local_laplace(i, j) += weight * (grad[i] * grad[j]) * dx;
-                            continue;
-                          }
-                        local(i, j) += a;
-                        local_prec(i, j) += a;
-                      }
-                  }
-              }
-            for (const auto f : cell->face_indices())
-              if (cell->face(f)->at_boundary() && cell->face(f)->boundary_id() == mesher::outlet)
-                {
-                  face_values.reinit(cell, f);
-                  for (unsigned q = 0; q < face_values.n_quadrature_points; ++q)
-                    for (unsigned i = 0; i < n; ++i)
-                      local_rhs(i) -= p_out * (face_values[velocities].value(i, q) * face_values.normal_vector(q)) *
-                                      face_values.JxW(q);
-                }
-            cell->get_dof_indices(dofs);
-            constraints.distribute_local_to_global(local, local_rhs, dofs, system, rhs);
-            if (!direct)
-              constraints.distribute_local_to_global(local_prec, dofs, preconditioner);
-            if (with_gap_laplace)
-              outlet_pressure.distribute_local_to_global(local_laplace, dofs, gap_laplace);
-          }
-      system.compress(VectorOperation::add);
-      if (!direct)
-        preconditioner.compress(VectorOperation::add);
-      if (with_gap_laplace)
-        gap_laplace.compress(VectorOperation::add);
-      rhs.compress(VectorOperation::add);
-    };
-
-    // One linear solve of the assembled system into `solution`.
-    const std::vector<PetscInt> velocity_indices(owned_u.begin(), owned_u.end()),
-      pressure_indices(owned_p.begin(), owned_p.end());
-    const auto linear_solve = [&]() {
-      if (direct)
-        {
-          SolverControl                    control(1, 0);
-          PETScWrappers::SparseDirectMUMPS mumps(control, comm);
-          mumps.solve(system, solution, rhs);
-          r.solver = "direct (MUMPS)";
-          r.iterations += 1;
-        }
-      else
-        {
-          BlockSolverSettings b;
-          b.tolerance      = s.tolerance;
-          b.max_iterations = s.max_iterations;
-          b.verbose        = verbose;
-          r.iterations += solve_block_system(system.petsc_matrix(), preconditioner.petsc_matrix(),
-                                             gap_schur ? gap_laplace.petsc_matrix() : nullptr, rhs, solution,
-                                             velocity_indices, pressure_indices, b);
-          r.solver = block_solver_name(gap_schur);
-        }
-      if (!std::isfinite(solution.l2_norm()))
-        throw std::runtime_error("the Stokes solver (" + r.solver + ") returned a non-finite solution (" +
-                                 std::to_string(r.n_dofs) + " DoFs); nothing is reported");
-      constraints.distribute(solution);
-    };
-
-    // The physical solution (pressure times sigma) with ghost values.
-    PETScWrappers::MPI::Vector ghosted(owned, relevant, comm), state(owned, relevant, comm);
-    const auto physical = [&]() {
-      PETScWrappers::MPI::Vector scaled = solution;
-      for (const auto i : owned_p)
-        scaled(i) *= sigma;
-      scaled.compress(VectorOperation::insert);
-      ghosted = scaled;
-    };
-
-    // Results: mean pressures and fluxes on inlet and outlet, dissipation,
-    // force on the reed.
-    const auto evaluate = [&]() {
-      FEValues<3> values(mapping, fe, quadrature, update_gradients | update_JxW_values);
-      std::vector<SymmetricTensor<2, 3>> e(quadrature.size());
-      std::vector<Tensor<2, 3>>          gu(quadrature.size());
-      std::vector<Tensor<1, 3>>          u_face(face_quadrature.size());
-      std::vector<SymmetricTensor<2, 3>> e_face(face_quadrature.size());
-      std::vector<double>                p_face(face_quadrature.size());
-      double sums[14] = {}; // dissipation, p_in A, A_in, flux_in, p_out A, A_out, flux_out, F(3), kinetic energy flux,
-                            // mu grad u : grad u
-      for (const auto &cell : dof.active_cell_iterators())
-        if (cell->is_locally_owned())
-          {
-            values.reinit(cell);
-            values[velocities].get_function_symmetric_gradients(ghosted, e);
-            values[velocities].get_function_gradients(ghosted, gu);
-            for (unsigned q = 0; q < quadrature.size(); ++q)
-              {
-                sums[0] += 2 * mu * (e[q] * e[q]) * values.JxW(q);
-                sums[13] += mu * scalar_product(gu[q], gu[q]) * values.JxW(q);
-              }
-            for (const auto f : cell->face_indices())
-              if (cell->face(f)->at_boundary())
-                {
-                  const auto id = cell->face(f)->boundary_id();
-                  if (id == mesher::walls)
-                    continue;
-                  face_values.reinit(cell, f);
-                  face_values[velocities].get_function_values(ghosted, u_face);
-                  face_values[velocities].get_function_symmetric_gradients(ghosted, e_face);
-                  face_values[pressure].get_function_values(ghosted, p_face);
-                  for (unsigned q = 0; q < face_quadrature.size(); ++q)
-                    {
-                      const double dA = face_values.JxW(q);
-                      const auto  &n  = face_values.normal_vector(q);
-                      if (id == mesher::inlet || id == mesher::outlet)
-                        sums[12] += 0.5 * rho * u_face[q].norm_square() * (u_face[q] * n) * dA;
-                      if (id == mesher::inlet)
-                        sums[1] += p_face[q] * dA, sums[2] += dA, sums[3] -= u_face[q] * n * dA;
-                      else if (id == mesher::outlet)
-                        sums[4] += p_face[q] * dA, sums[5] += dA, sums[6] += u_face[q] * n * dA;
-                      else // reed: the fluid's force on it, -sigma n with n out of the fluid
-                        {
-                          const Tensor<1, 3> t = (p_face[q] - s.outlet_pressure_Pa) * n - 2 * mu * (e_face[q] * n);
-                          for (int d = 0; d < 3; ++d)
-                            sums[7 + d] += t[d] * dA;
-                        }
-                    }
-                }
-          }
-      Utilities::MPI::sum(ArrayView<const double>(sums, 14), comm, ArrayView<double>(sums, 14));
-      r.R_gradient_dissipation_Pa_s_per_m3 = sums[13] / (Q * Q);
-      r.kinetic_energy_flux_W = sums[12];
-      r.inlet_area_m2             = sums[2];
-      r.outlet_area_m2            = sums[5];
-      r.inlet_pressure_Pa         = sums[1] / sums[2];
-      r.outlet_pressure_Pa        = sums[4] / sums[5];
-      r.inlet_flux_m3_per_s       = sums[3];
-      r.outlet_flux_m3_per_s      = sums[6];
-      r.mass_balance_rel_error    = std::abs(sums[6] - sums[3]) / Q;
-      r.R_pressure_Pa_s_per_m3    = (r.inlet_pressure_Pa - r.outlet_pressure_Pa) / Q;
-      r.R_dissipation_Pa_s_per_m3 = sums[0] / (Q * Q);
-      for (int d = 0; d < 3; ++d)
-        r.reed_force_N[d] = sums[7 + d];
-      r.A_eff_m2 = r.reed_force_N[2] / (r.inlet_pressure_Pa - r.outlet_pressure_Pa);
-      for (double v : {r.R_pressure_Pa_s_per_m3, r.R_dissipation_Pa_s_per_m3, r.mass_balance_rel_error, r.A_eff_m2})
-        if (!std::isfinite(v))
-          throw std::runtime_error("the Stokes solution gives a non-finite result (" + r.solver + ", " +
-                                   std::to_string(r.n_dofs) + " DoFs); nothing is reported");
-    };
-
-    // Stokes.
-    auto step_start = Clock::now();
-    assemble(nullptr, gap_schur);
-    r.assembly_time_s = seconds_since(step_start);
-    lap("flow: assembly");
-    step_start = Clock::now();
-    linear_solve();
-    r.solve_time_s = seconds_since(step_start);
-    lap(direct ? "flow: solve (MUMPS)" : "flow: solve (FGMRES)");
-    physical();
-    evaluate();
-    r.stokes_R_Pa_s_per_m3              = r.R_pressure_Pa_s_per_m3;
-    r.stokes_R_gradient_dissipation_Pa_s_per_m3 = r.R_gradient_dissipation_Pa_s_per_m3;
-
-    // Navier-Stokes: Newton's method from the Stokes flow.
-    if (s.navier_stokes)
-      {
-        double change = 1;
-        while (change > s.newton_tolerance)
-          {
-            if (r.newton_iterations == static_cast<unsigned>(s.newton_max_iterations))
-              throw std::runtime_error("Newton's method for Navier-Stokes did not converge in " +
-                                       std::to_string(s.newton_max_iterations) + " steps (relative change " +
-                                       format_number(change) + "; Re too high for a steady flow?)");
-            state = solution;
-            const double previous = r.R_pressure_Pa_s_per_m3;
-            step_start = Clock::now();
-            assemble(&state, false);
-            r.assembly_time_s += seconds_since(step_start);
-            step_start = Clock::now();
-            try
-              {
-                linear_solve();
-              }
-            catch (const std::runtime_error &e)
-              {
-                throw std::runtime_error(std::string(e.what()) + " in Newton step " +
-                                         std::to_string(r.newton_iterations + 1) +
-                                         " of Navier-Stokes: the Schur preconditioner ignores convection; at "
-                                         "higher Reynolds numbers use [flow] solver = \"direct\"");
-              }
-            r.solve_time_s += seconds_since(step_start);
-            physical();
-            evaluate();
-            ++r.newton_iterations;
-            change = std::abs(r.R_pressure_Pa_s_per_m3 / previous - 1);
-            if (verbose && root)
-              std::fprintf(stderr, "  Newton step %u: R %.9e (change %.1e)\n", r.newton_iterations,
-                           r.R_pressure_Pa_s_per_m3, change);
-          }
-      }
-    if (!vtu_dir.empty())
-      {
-        DataOut<3> out;
-        out.attach_dof_handler(dof);
-        std::vector<std::string> names{"velocity", "velocity", "velocity", "pressure"};
-        std::vector<DataComponentInterpretation::DataComponentInterpretation> kinds(
-          3, DataComponentInterpretation::component_is_part_of_vector);
-        kinds.push_back(DataComponentInterpretation::component_is_scalar);
-        out.add_data_vector(ghosted, names, DataOut<3>::type_dof_data, kinds);
-        out.build_patches(mapping);
-        out.write_vtu_with_pvtu_record(vtu_dir.string() + "/", "flow", 0, comm, 0, 0);
-      }
-    r.wall_time_s = seconds_since(start);
-    return r;
+    StokesProblem problem(mesh, parameters, verbose); // throws InputError without an inlet
+    return problem.run(vtu_dir);
   }
 } // namespace rectify::stokes

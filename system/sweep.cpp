@@ -145,6 +145,10 @@ namespace rectify::system
                                   {"finite_difference_jacobian", options.run.finite_difference_jacobian},
                                   {"parameters", parameters.to_json()},
                                   {"resistance_map_hash", file_hash(parameters.valves.resistance_map)}};
+    for (std::size_t v = 0; v < 2; ++v) // a map set's manifest holds its tables' hashes
+      if (!parameters.valves.map_set[v].empty())
+        fingerprint[v == 0 ? "outlet_map_set_hash" : "inlet_map_set_hash"] =
+          file_hash(std::filesystem::path(parameters.valves.map_set[v]) / "manifest.json");
 
     // Resume: what a previous run with the same settings finished.
     Checkpoint                        checkpoint(out_dir, "sweep-partial", fingerprint,

@@ -1,0 +1,154 @@
+// `rectify design` (design/): the map set of a coarse valve. Its interpolant
+// is checked against extra Stokes solves at random openings on the same FE
+// reed shape; two processes give the one-process map; an interrupted run
+// resumes; bad [design] input is refused before any work.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <random>
+
+#include "common/io.h"
+#include "maps/map_set.h"
+#include "tests/cli_helpers.h"
+
+using namespace rectify;
+using namespace rectify::test_support;
+
+namespace
+{
+  // A coarse flow mesh (direct solver: the -np 1 / -np 2 comparison is exact)
+  // and a coarse reed; openings 10-300 um, 2 % interpolation tolerance.
+  const std::string coarse_case = "[mesh]\nsize_reed_m = 0.5e-3\nsize_far_m = 1.5e-3\nstation_spacing_m = 0.4e-3\n"
+                                  "gap_layers = 2\nreed_layers = 1\nabove_layers = 1\nport_layer_m = 1e-3\n"
+                                  "[flow]\nsolver = \"direct\"\n"
+                                  "[stiffness]\ncells_along_length = 12\ncells_across_width = 10\n"
+                                  "cells_through_thickness = 1\nn_modes = 1\n"
+                                  "[design]\nopenings_from_m = 10e-6\nopenings_to_m = 300e-6\ninitial_openings = 3\n"
+                                  "tolerance = 0.02\n";
+
+  nlohmann::json read_json(const std::filesystem::path &path)
+  {
+    std::ifstream in(path);
+    return nlohmann::json::parse(in);
+  }
+
+  std::string mpirun(int n)
+  {
+    // this test program runs under MPI itself (singleton): mpirun must not see its environment
+    return "for v in $(env | grep -o '^\\(OMPI\\|PMIX\\|OPAL\\)[A-Za-z0-9_]*'); do unset $v; done; "
+           "mpirun --allow-run-as-root --oversubscribe -np " +
+           std::to_string(n) + " ";
+  }
+} // namespace
+
+TEST(Design, MapSetInterpolatesExtraSolvesTwoProcessesAgreeAndItResumes)
+{
+  const auto dir = scratch("design");
+  write_file_atomic(dir / "coarse.toml", coarse_case);
+  const std::string args = "design --case " + (dir / "coarse.toml").string() + " --out ";
+  const auto        one  = rectify_cli(args + (dir / "one").string());
+  ASSERT_EQ(one.exit_code, 0) << one.output;
+  const auto set = maps::MapSet::read(dir / "one");
+  const auto manifest = read_json(dir / "one" / "manifest.json");
+
+  // Provenance: the case tables, code version, per point its numbers.
+  for (const char *table : {"geometry", "fluid", "reed_material", "mesh", "flow", "stiffness"})
+    {
+      ASSERT_TRUE(manifest["depends_on"].contains(table)) << table;
+      EXPECT_EQ(manifest["depends_on"][table]["hash"].get<std::string>().size(), 16u);
+    }
+  EXPECT_EQ(manifest["rectify_version"], RECTIFY_VERSION);
+  EXPECT_FALSE(manifest["code_revision"].get<std::string>().empty());
+  const auto &points = manifest["points"];
+  ASSERT_GE(points.size(), 4u);
+  for (const auto &p : points)
+    {
+      EXPECT_GT(p["n_dofs"].get<double>(), 1000);
+      EXPECT_GE(p["iterations"].get<double>(), 1);
+      EXPECT_LT(p["mass_balance_rel_error"].get<double>(), 1e-8);
+      EXPECT_GT(p["wall_time_s"].get<double>(), 0);
+    }
+  EXPECT_TRUE(manifest["interpolation_error"]["converged"].get<bool>());
+  EXPECT_LE(manifest["interpolation_error"]["R_max_rel"].get<double>(), 0.01);
+  ASSERT_TRUE(set.reed());
+  EXPECT_NEAR(set.reed()->stiffness_N_per_m, 6500, 300); // coarse reed, docs/stiffness.md: 6636 at 6x5x1
+  EXPECT_NEAR(set.seated_area_m2(), M_PI * 0.25 * 3.175e-3 * 3.175e-3, 1e-12);
+  // Thin-gap physics in the map: R ~ x^-3 at small openings, A_eff above the port's area.
+  const double n = std::log(set.resistance().evaluate(10e-6).resistance / set.resistance().evaluate(40e-6).resistance) /
+                   std::log(4.0);
+  EXPECT_NEAR(n, 3.0, 0.1);
+  EXPECT_GT(set.area().evaluate(10e-6).area, 1.5 * set.seated_area_m2());
+
+  // The interpolant against extra solves at random openings, on the same FE shape.
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(std::log(10e-6), std::log(300e-6));
+  write_file_atomic(dir / "fe-shape.toml", replace(coarse_case, "[mesh]\n", "[mesh]\nshape = \"table\"\nshape_table = \"" +
+                                                                          (dir / "one" / "reed" / "shape.csv").string() + "\"\n"));
+  for (int k = 0; k < 3; ++k)
+    {
+      const double x  = std::exp(u(rng));
+      const auto   st = rectify_cli("stokes --no-vtu --case " + (dir / "fe-shape.toml").string() + " --opening " +
+                                    format_number(x) + " --out " + (dir / ("extra" + std::to_string(k))).string());
+      ASSERT_EQ(st.exit_code, 0) << st.output;
+      const auto s = read_json(dir / ("extra" + std::to_string(k)) / "summary.json");
+      EXPECT_NEAR(set.resistance().evaluate(x).resistance / s["R_Pa_s_per_m3"].get<double>(), 1.0, 0.01) << x;
+      EXPECT_NEAR(set.area().evaluate(x).area / s["A_eff_m2"].get<double>(), 1.0, 0.01) << x;
+    }
+
+  // Two processes: the same map to 1e-9.
+  const auto two = std::system((mpirun(2) + RECTIFY_BINARY + " " + args + (dir / "two").string() + " > " +
+                                (dir / "two.log").string() + " 2>&1")
+                                 .c_str());
+  ASSERT_EQ(two, 0) << std::ifstream(dir / "two.log").rdbuf();
+  const auto set2 = maps::MapSet::read(dir / "two");
+  ASSERT_EQ(set2.resistance().openings(), set.resistance().openings());
+  for (std::size_t i = 0; i < set.resistance().openings().size(); ++i)
+    EXPECT_NEAR(set2.resistance().resistances()[i] / set.resistance().resistances()[i], 1.0, 1e-9) << i;
+  for (std::size_t i = 0; i < set.area().openings().size(); ++i)
+    EXPECT_NEAR(set2.area().areas()[i] / set.area().areas()[i], 1.0, 1e-9) << i;
+  EXPECT_EQ(read_json(dir / "two" / "manifest.json")["settings"]["n_processes"], 2);
+
+  // Interrupted after some openings: the run again solves only the rest.
+  const auto partial = dir / "one" / "partial" / "openings-partial.csv";
+  std::ifstream in(partial);
+  std::string   text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  for (int cut = 0; cut < 2; ++cut)
+    text.erase(text.find_last_of('\n', text.size() - 2) + 1);
+  write_file_atomic(partial, text);
+  std::filesystem::remove(dir / "one" / "manifest.json");
+  const auto again = rectify_cli(args + (dir / "one").string());
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  std::size_t resumed = 0, solved = 0;
+  for (std::size_t pos = 0; (pos = again.output.find("from the checkpoint", pos)) != std::string::npos; ++pos)
+    ++resumed;
+  for (std::size_t pos = 0; (pos = again.output.find("DoFs,", pos)) != std::string::npos; ++pos)
+    ++solved;
+  EXPECT_EQ(solved, 2u) << again.output;
+  EXPECT_EQ(resumed + solved, points.size()) << again.output;
+  const auto set3 = maps::MapSet::read(dir / "one");
+  EXPECT_EQ(set3.resistance().resistances(), set.resistance().resistances());
+  std::filesystem::remove_all(dir);
+}
+
+TEST(Design, BadDesignSettingsAreRefusedBeforeAnyWork)
+{
+  const auto dir = scratch("design_bad");
+  for (const auto &[text, needle] : std::vector<std::pair<std::string, std::string>>{
+         {"[design]\ntolerance = 0\n", "tolerance"},
+         {"[design]\nopenings_from_m = -1e-6\n", "openings_from_m"},
+         {"[design]\nopenings_from_m = 1e-4\nopenings_to_m = 1e-5\n", "openings_to_m"},
+         {"[design]\nopenings_to_m = 1.95e-3\n", "ceiling"},
+         {"[design]\ninitial_openings = 2\n", "initial_openings"},
+         {"[design]\ntolerence = 0.01\n", "tolerence"}})
+    {
+      write_file_atomic(dir / "bad.toml", text);
+      const auto r = rectify_cli("design --case " + (dir / "bad.toml").string() + " --out " + (dir / "out").string());
+      EXPECT_EQ(r.exit_code, 2) << text << r.output;
+      EXPECT_NE(r.output.find(needle), std::string::npos) << r.output;
+      EXPECT_FALSE(std::filesystem::exists(dir / "out" / "manifest.json"));
+    }
+  std::filesystem::remove_all(dir);
+}
