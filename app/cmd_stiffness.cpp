@@ -13,6 +13,7 @@
 #include "stiffness_solver/analytic.h"
 #include "stiffness_solver/elasticity.h"
 #include "stiffness_solver/reed_analysis.h"
+#include "stiffness_solver/reed_sweep.h"
 
 namespace rectify::app
 {
@@ -208,101 +209,21 @@ namespace rectify::app
 
     void map_stiffness_command(const MapStiffnessOptions &o)
     {
-      const CaseFile      file       = load_case(o.case_path);
-      const auto          base       = StiffnessParameters::from_case(file);
-      const auto          thicknesses = parse_range(o.thickness, "--thickness");
+      const CaseFile              file        = load_case(o.case_path);
+      const auto                  base        = StiffnessParameters::from_case(file);
+      const auto                  thicknesses = parse_range(o.thickness, "--thickness");
       const std::filesystem::path out(o.out_dir);
       for (double t : thicknesses)
         if (t >= 0.5 * std::min(base.geometry.reed_length_m, base.geometry.reed_width_m))
           throw InputError("--thickness " + format_number(t) + " m: a reed must be a thin plate");
-      echo_settings("map-stiffness", {{"case", o.case_path},
-                                      {"thickness [m]", o.thickness + " (" + std::to_string(thicknesses.size()) + " values)"},
-                                      {"out", o.out_dir}});
-      ensure_directory(out);
-
-      nlohmann::json fingerprint = {{"thickness_m", thicknesses},
-                                    {"reed_length_m", base.geometry.reed_length_m},
-                                    {"reed_width_m", base.geometry.reed_width_m},
-                                    {"port_diameter_m", base.geometry.port_diameter_m},
-                                    {"port_center_x_m", base.geometry.port_center_x_m},
-                                    {"youngs_modulus_Pa", base.material.youngs_modulus_Pa},
-                                    {"poisson_ratio", base.material.poisson_ratio},
-                                    {"density_kg_per_m3", base.material.density_kg_per_m3},
-                                    {"fluid_density_kg_per_m3", base.fluid.density_kg_per_m3},
-                                    {"load", to_string(base.settings.load)},
-                                    {"mesh", {base.settings.cells_along_length, base.settings.cells_across_width,
-                                              base.settings.cells_through_thickness, base.settings.fe_degree}},
-                                    {"n_modes", base.settings.n_modes},
-                                    {"added_mass_factor", base.settings.added_mass_factor}};
-      const std::vector<std::string> columns{
-        "thickness_m",          "stiffness_N_per_m",     "frequency_Hz",         "modal_mass_kg",
-        "frequency_in_fluid_Hz", "modal_mass_in_fluid_kg", "effective_mass_eq321_kg",
-        "frequency_eq321_Hz",   "n_dofs",                "wall_time_s"};
-      std::string header;
-      for (const auto &c : columns)
-        header += (header.empty() ? "" : ",") + c;
-      Checkpoint checkpoint(out, "map-partial", fingerprint, header);
-      std::map<double, std::vector<double>> done;
-      for (const auto &row : checkpoint.finished_rows())
-        {
-          const auto csv = parse_csv(header + "\n" + row + "\n", (out / "map-partial.csv").string());
-          done[csv.rows[0][0]] = csv.rows[0];
-        }
-
-      const std::size_t n_resumed = done.size();
-      Progress          progress("map-stiffness", thicknesses.size(), n_resumed);
-      for (double t : thicknesses)
-        {
-          if (done.count(t))
-            continue;
-          auto p                      = base;
-          p.geometry.reed_thickness_m = t;
-          SolveOptions so;
-          so.n_shape_points   = 2;
-          const auto    r     = solve_reed(p, so);
-          const ReedBounds b     = reed_bounds(p);
-          const InFluid fluid = in_fluid(r, b, p.settings.added_mass_factor);
-          const std::vector<double> row{t,
-                                        r.k_N_per_m,
-                                        r.modes.empty() ? 0.0 : r.modes[0].frequency_Hz,
-                                        r.modes.empty() ? 0.0 : r.modes[0].modal_mass_kg,
-                                        fluid.frequency_Hz,
-                                        fluid.modal_mass_kg,
-                                        fluid.eq321_mass_kg,
-                                        fluid.eq321_frequency_Hz,
-                                        static_cast<double>(r.n_dofs),
-                                        r.wall_time_s};
-          const std::string line = csv_row(row);
-          checkpoint.append(line);
-          done[t] = row;
-          char what[128];
-          std::snprintf(what, sizeof(what), "t = %.4g m: k = %.5g N/m, f1 = %.5g Hz, %.1f s", t,
-                        r.k_N_per_m, row[2], r.wall_time_s);
-          progress.step(what);
-        }
-
-      // The map: CSV with a JSON metadata line, the convention of every rectify map.
-      CsvTable table(columns);
-      for (double t : thicknesses)
-        table.add_row(done.at(t));
-      nlohmann::json meta = fingerprint;
-      meta["quantity"]    = "reed stiffness, first mode and masses vs thickness";
-      meta["written_by"]  = std::string("rectify ") + RECTIFY_VERSION;
-      write_file_atomic(out / "reed-map.csv", "# rectify reed map: k_r, f1 and masses vs reed thickness\n# meta: " +
-                                                 meta.dump() + "\n" + table.to_string());
-      // log-log slope of k(t) by least squares
-      double sx = 0, sy = 0, sxx = 0, sxy = 0;
-      const double n = static_cast<double>(thicknesses.size());
-      for (double t : thicknesses)
-        {
-          const double x = std::log(t), y = std::log(done.at(t)[1]);
-          sx += x;
-          sy += y;
-          sxx += x * x;
-          sxy += x * y;
-        }
-      const double slope = n > 1 ? (n * sxy - sx * sy) / (n * sxx - sx * sx) : 0.0;
-      const bool plotted = render_plot(
+      echo_settings("map-stiffness",
+                    {{"case", o.case_path},
+                     {"thickness [m]", o.thickness + " (" + std::to_string(thicknesses.size()) + " values)"},
+                     {"out", o.out_dir}});
+      const auto r = reed_thickness_sweep(base, thicknesses, out);
+      r.map.write(out / "reed-map.csv");
+      const double slope   = r.k_loglog_slope;
+      const bool   plotted = render_plot(
         out / "reed-map",
         {{"Reed stiffness vs thickness (log-log slope " + format_number(std::round(slope * 1000) / 1000) + ")",
           "thickness [mm]", "k_r [N/m]", true, true,
@@ -314,15 +235,15 @@ namespace rectify::app
       nlohmann::json summary = {{"command", "map-stiffness"},
                                 {"rectify_version", RECTIFY_VERSION},
                                 {"case", o.case_path},
-                                {"thickness_m", table.column("thickness_m")},
-                                {"k_N_per_m", table.column("stiffness_N_per_m")},
-                                {"frequency_Hz", table.column("frequency_Hz")},
-                                {"modal_mass_kg", table.column("modal_mass_kg")},
-                                {"frequency_in_fluid_Hz", table.column("frequency_in_fluid_Hz")},
-                                {"effective_mass_eq321_kg", table.column("effective_mass_eq321_kg")},
-                                {"wall_time_s", table.column("wall_time_s")},
+                                {"thickness_m", r.map.column("thickness_m")},
+                                {"k_N_per_m", r.map.column("stiffness_N_per_m")},
+                                {"frequency_Hz", r.map.column("frequency_Hz")},
+                                {"modal_mass_kg", r.map.column("modal_mass_kg")},
+                                {"frequency_in_fluid_Hz", r.map.column("frequency_in_fluid_Hz")},
+                                {"effective_mass_eq321_kg", r.map.column("effective_mass_eq321_kg")},
+                                {"wall_time_s", r.map.column("wall_time_s")},
                                 {"k_loglog_slope", slope},
-                                {"runs_resumed", n_resumed},
+                                {"runs_resumed", r.n_resumed},
                                 {"files", {"reed-map.csv", plotted ? "reed-map.png" : ""}}};
       write_json(out / "summary.json", summary);
       std::printf("k ~ t^%.4f over %zu thicknesses; wrote %s\n", slope, thicknesses.size(),

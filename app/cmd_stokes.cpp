@@ -13,6 +13,7 @@
 #include "maps/resistance_map.h"
 #include "mesher/mesher.h"
 #include "stokes_solver/stokes.h"
+#include "stokes_solver/resistance_sweep.h"
 #include "stokes_solver/thin_gap.h"
 
 namespace rectify::app
@@ -56,15 +57,6 @@ namespace rectify::app
               {"assembly_time_s", r.assembly_time_s},
               {"solve_time_s", r.solve_time_s},
               {"wall_time_s", r.wall_time_s}};
-    }
-
-    /// Thin-gap (Reynolds equation) theory for the same valve, shape as the
-    /// mesher samples it, closed where the mesher closes it; grid 10 um.
-    double thin_gap_R(const mesher::MeshParameters &mp, const mesher::MeshInfo &info, double opening, double mu)
-    {
-      const mesher::SampledShape shape = mp.sampled_shape();
-      return stokes::thin_gap_valve_R(mp.geometry, [&](double x) { return shape(x); }, opening, info.closed_to_m,
-                                      mu, 10e-6);
     }
 
     void stokes_command(const StokesOptions &o)
@@ -112,7 +104,7 @@ namespace rectify::app
       summary["reynolds_gap_exit"] = 2 * rho * Q / ((2 * g.reed_length_m + g.reed_width_m) * mu);
       summary["mesh"] = mesher::to_json(valve.info);
       summary["equations"] = o.navier_stokes ? "navier-stokes" : "stokes";
-      summary["R_thin_gap_Pa_s_per_m3"] = thin_gap_R(mp, valve.info, opening, mu);
+      summary["R_thin_gap_Pa_s_per_m3"] = stokes::thin_gap_R(mp, valve.info.closed_to_m, opening, mu);
       summary["stokes_R_Pa_s_per_m3"] = r.stokes_R_Pa_s_per_m3;
       const double shift = r.R_pressure_Pa_s_per_m3 / r.stokes_R_Pa_s_per_m3 - 1;
       if (o.navier_stokes)
@@ -178,67 +170,18 @@ namespace rectify::app
         {"fluid", {fp.fluid.viscosity_Pa_s, fp.fluid.density_kg_per_m3}},
         {"flow", {fp.settings.flow_rate_m3_per_s, fp.settings.outlet_pressure_Pa, fp.settings.solver,
                   fp.settings.tolerance}}};
-      const std::vector<std::string> columns{"opening_m", "R_Pa_s_per_m3", "R_dissipation_Pa_s_per_m3",
-                                             "reed_force_N", "A_eff_m2", "pressure_drop_Pa",
-                                             "mass_balance_rel_error", "n_dofs", "iterations", "wall_time_s",
-                                             "R_thin_gap_Pa_s_per_m3"};
-      std::string header;
-      for (const auto &c : columns)
-        header += (header.empty() ? "" : ",") + c;
-      // The root keeps the checkpoint; every process learns what is done.
-      std::unique_ptr<Checkpoint>           checkpoint;
-      std::map<double, std::vector<double>> done;
-      std::vector<double>                   flat;
-      if (root)
-        {
-          ensure_directory(out);
-          checkpoint = std::make_unique<Checkpoint>(out, "map-partial", fingerprint, header);
-          for (const auto &row : checkpoint->finished_rows())
-            {
-              const auto csv = parse_csv(header + "\n" + row + "\n", (out / "map-partial.csv").string());
-              flat.insert(flat.end(), csv.rows[0].begin(), csv.rows[0].end());
-            }
-        }
-      flat = mpi.broadcast(flat);
-      for (std::size_t i = 0; i + columns.size() <= flat.size(); i += columns.size())
-        done[flat[i]] = std::vector<double>(flat.begin() + static_cast<long>(i),
-                                            flat.begin() + static_cast<long>(i + columns.size()));
-
-      Progress progress("map-resistance", openings.size(), done.size(), !root);
-      for (double x : openings)
-        {
-          if (done.count(x))
-            continue;
-          const auto valve = mesher::mesh_valve(mp, x, false);
-          const auto r     = stokes::solve_stokes(valve.mesh, fp);
-          if (!root) // the other processes only need to know it is done
-            {
-              done[x] = {};
-              continue;
-            }
-          const std::vector<double> row{x, r.R_pressure_Pa_s_per_m3, r.R_dissipation_Pa_s_per_m3,
-                                        r.reed_force_N[2], r.A_eff_m2, r.inlet_pressure_Pa - r.outlet_pressure_Pa,
-                                        r.mass_balance_rel_error, static_cast<double>(r.n_dofs),
-                                        static_cast<double>(r.iterations), r.wall_time_s,
-                                        thin_gap_R(mp, valve.info, x, fp.fluid.viscosity_Pa_s)};
-          done[x] = row;
-          const std::string line = csv_row(row);
-          checkpoint->append(line);
-          char what[160];
-          std::snprintf(what, sizeof(what), "%.4g um: R = %.4e Pa s/m^3, %zu DoFs, %.1f s", x * 1e6,
-                        r.R_pressure_Pa_s_per_m3, r.n_dofs, r.wall_time_s);
-          progress.step(what);
-        }
+      std::size_t n_resumed = 0;
+      const auto  solved    = stokes::fixed_resistance_sweep(mp, fp, openings, out, fingerprint, mpi, &n_resumed);
       if (!root)
         return;
 
-      CsvTable points(columns), thesis({"opening_m", "R_Pa_s_per_m3"});
+      CsvTable points(stokes::OpeningPoint::columns()), thesis({"opening_m", "R_Pa_s_per_m3"});
       std::vector<double> map_x{0.0}, map_R{1e17}; // closed valve: the thesis's value (sec. 3.2.4)
-      for (double x : openings)
+      for (const auto &p : solved)
         {
-          points.add_row(done.at(x));
-          map_x.push_back(x);
-          map_R.push_back(done.at(x)[1]);
+          points.add_row(p.row());
+          map_x.push_back(p.opening_m);
+          map_R.push_back(p.R_Pa_s_per_m3);
         }
       for (int k = 0; k <= 200; ++k) // the thesis's fit, drawn finely over the same range
         {
@@ -271,6 +214,7 @@ namespace rectify::app
                                         {"R_thin_gap_Pa_s_per_m3", points.column("R_thin_gap_Pa_s_per_m3")},
                                         {"mass_balance_rel_error", points.column("mass_balance_rel_error")},
                                         {"n_processes", mpi.size()},
+                                        {"runs_resumed", n_resumed},
                                         {"settings", fingerprint}});
       std::printf("R(x) at %zu openings in %s (resistance-map.csv, resistance-map.png)\n", openings.size(),
                   out.c_str());

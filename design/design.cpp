@@ -9,6 +9,7 @@
 
 #include "common/io.h"
 #include "common/plot.h"
+#include "common/version.h"
 #include "maps/map_set.h"
 #include "mesher/parameters.h"
 #include "stiffness_solver/elasticity.h"
@@ -222,7 +223,7 @@ namespace rectify::design
     nlohmann::json manifest = {
       {"source", "rectify design: Stokes flow (deal.II, P2-P1) on meshes of the FE reed shape; 3D elasticity"},
       {"rectify_version", RECTIFY_VERSION},
-      {"code_revision", RECTIFY_REVISION},
+      {"code_revision", source_revision()},
       {"created", utc_now()},
       {"case", file.name()},
       {"depends_on", deps},
@@ -283,7 +284,7 @@ namespace rectify::design
     // The report.
     std::ostringstream md;
     md << "# Map set: " << file.name() << "\n\n"
-       << "Made by `rectify design` (rectify " << RECTIFY_VERSION << ", " << RECTIFY_REVISION << ") on "
+       << "Made by `rectify design` (rectify " << RECTIFY_VERSION << ", " << source_revision() << ") on "
        << utc_now() << ", " << mpi.size() << " process(es), " << fmt("%.0f", seconds_since(start))
        << " s wall.\n\n## The reed (stiffness solver)\n\n"
        << "| quantity | FE | beam (E) | plate (E') | thesis |\n|---|---:|---:|---:|---:|\n"

@@ -92,83 +92,135 @@ namespace rectify::stokes
     return {std::exp(r_cubic.evaluate(std::log(x)).value), a_cubic.evaluate(std::log(x)).value};
   }
 
+  OpeningPoint solve_opening(const mesher::MeshParameters &mp, const FlowParameters &fp, double x,
+                             const MpiSession &mpi)
+  {
+    const double rho = fp.fluid.density_kg_per_m3, mu = fp.fluid.viscosity_Pa_s, Q = fp.settings.flow_rate_m3_per_s;
+    const auto  &g   = mp.geometry;
+    const auto          valve = mesher::mesh_valve(mp, x, false);
+    const StokesResult  r     = solve_stokes(valve.mesh, fp);
+    OpeningPoint        p;
+    p.opening_m                 = x;
+    p.R_Pa_s_per_m3             = r.R_pressure_Pa_s_per_m3;
+    p.R_dissipation_Pa_s_per_m3 = r.R_dissipation_Pa_s_per_m3;
+    p.reed_force_N              = r.reed_force_N[2];
+    p.A_eff_m2                  = r.A_eff_m2;
+    p.pressure_drop_Pa          = r.inlet_pressure_Pa - r.outlet_pressure_Pa;
+    p.R_thin_gap_Pa_s_per_m3    = thin_gap_R(mp, valve.info.closed_to_m, x, mu);
+    // Reynolds numbers: in the port (diameter D) and at the gap's exit
+    // (2 h U / nu with U = Q / (perimeter h): independent of h).
+    p.reynolds_port          = 4 * rho * Q / (M_PI * g.port_diameter_m * mu);
+    p.reynolds_gap_exit      = 2 * rho * Q / ((2 * g.reed_length_m + g.reed_width_m) * mu);
+    p.mass_balance_rel_error = r.mass_balance_rel_error;
+    p.n_dofs                 = static_cast<double>(r.n_dofs);
+    p.iterations             = r.iterations;
+    p.wall_time_s            = r.wall_time_s;
+    // Every process holds the root's numbers (the sums are reduced, but the
+    // thin-gap estimate and timings are each process's own).
+    return OpeningPoint::from_row(mpi.broadcast(p.row()));
+  }
+
+  namespace
+  {
+    /// Openings solved at most once: from the root's checkpoint, else solved
+    /// and appended to it at once. Every process calls it with the same openings.
+    class CheckpointedOpenings
+    {
+    public:
+      CheckpointedOpenings(const mesher::MeshParameters &mp, const FlowParameters &fp,
+                           const std::filesystem::path &dir, const std::string &name,
+                           const nlohmann::json &fingerprint, const MpiSession &mpi, const std::string &label,
+                           std::size_t n_planned)
+        : mp_(mp)
+        , fp_(fp)
+        , mpi_(mpi)
+        , root_(mpi.rank() == 0)
+      {
+        const auto  columns = OpeningPoint::columns();
+        std::string header;
+        for (const auto &c : columns)
+          header += (header.empty() ? "" : ",") + c;
+        std::vector<double> flat;
+        if (root_)
+          {
+            ensure_directory(dir);
+            checkpoint_ = std::make_unique<Checkpoint>(dir, name, fingerprint, header);
+            for (const auto &line : checkpoint_->finished_rows())
+              {
+                const auto csv = parse_csv(header + "\n" + line + "\n", (dir / (name + ".csv")).string());
+                flat.insert(flat.end(), csv.rows[0].begin(), csv.rows[0].end());
+              }
+          }
+        flat = mpi.broadcast(flat);
+        for (std::size_t i = 0; i + columns.size() <= flat.size(); i += columns.size())
+          done_[flat[i]] = OpeningPoint::from_row({flat.begin() + static_cast<long>(i),
+                                                   flat.begin() + static_cast<long>(i + columns.size())});
+        n_resumed_ = done_.size();
+        progress_  = std::make_unique<Progress>(label, n_planned, 0, !root_);
+      }
+
+      const OpeningPoint &get(double x)
+      {
+        if (const auto it = done_.find(x); it != done_.end())
+          {
+            if (root_)
+              progress_->step(format_number(x * 1e6) + " um: from the checkpoint");
+            return it->second;
+          }
+        const OpeningPoint p = solve_opening(mp_, fp_, x, mpi_);
+        if (!(p.R_Pa_s_per_m3 > 0) || !(p.A_eff_m2 > 0))
+          throw std::runtime_error("the Stokes solution at " + format_number(x) + " m gives R = " +
+                                   format_number(p.R_Pa_s_per_m3) + ", A_eff = " + format_number(p.A_eff_m2));
+        if (root_)
+          {
+            checkpoint_->append(csv_row(p.row()));
+            char what[200];
+            std::snprintf(what, sizeof(what), "%.4g um: R = %.4e Pa s/m^3, A_eff = %.3f mm^2, %.0f DoFs, %.1f s",
+                          x * 1e6, p.R_Pa_s_per_m3, p.A_eff_m2 * 1e6, p.n_dofs, p.wall_time_s);
+            progress_->step(what);
+          }
+        return done_[x] = p;
+      }
+
+      void        extend(std::size_t more) { progress_->extend(more); }
+      std::size_t n_resumed() const { return n_resumed_; }
+
+    private:
+      const mesher::MeshParameters  &mp_;
+      const FlowParameters          &fp_;
+      const MpiSession              &mpi_;
+      const bool                     root_;
+      std::unique_ptr<Checkpoint>    checkpoint_;
+      std::unique_ptr<Progress>      progress_;
+      std::map<double, OpeningPoint> done_;
+      std::size_t                    n_resumed_ = 0;
+    };
+  } // namespace
+
+  std::vector<OpeningPoint> fixed_resistance_sweep(const mesher::MeshParameters &mp, const FlowParameters &fp,
+                                                   const std::vector<double> &openings,
+                                                   const std::filesystem::path &dir, const nlohmann::json &fingerprint,
+                                                   const MpiSession &mpi, std::size_t *n_resumed)
+  {
+    CheckpointedOpenings      solver(mp, fp, dir, "map-partial", fingerprint, mpi, "map-resistance", openings.size());
+    std::vector<OpeningPoint> points;
+    for (double x : openings)
+      points.push_back(solver.get(x));
+    if (n_resumed != nullptr)
+      *n_resumed = solver.n_resumed();
+    return points;
+  }
+
   SweepResult resistance_sweep(const mesher::MeshParameters &mp, const FlowParameters &fp, const SweepSettings &s,
                                const std::filesystem::path &dir, const nlohmann::json &fingerprint,
                                const MpiSession &mpi)
   {
-    const bool root    = mpi.rank() == 0;
-    const auto columns = OpeningPoint::columns();
-    std::string header;
-    for (const auto &c : columns)
-      header += (header.empty() ? "" : ",") + c;
-
-    // The root keeps the checkpoint; every process learns what is done.
-    std::unique_ptr<Checkpoint>   checkpoint;
-    std::vector<double>           flat;
-    if (root)
-      {
-        ensure_directory(dir);
-        checkpoint = std::make_unique<Checkpoint>(dir, "openings-partial", fingerprint, header);
-        for (const auto &line : checkpoint->finished_rows())
-          {
-            const auto csv = parse_csv(header + "\n" + line + "\n", (dir / "openings-partial.csv").string());
-            flat.insert(flat.end(), csv.rows[0].begin(), csv.rows[0].end());
-          }
-      }
-    flat = mpi.broadcast(flat);
-    std::map<double, OpeningPoint> done;
-    for (std::size_t i = 0; i + columns.size() <= flat.size(); i += columns.size())
-      done[flat[i]] = OpeningPoint::from_row({flat.begin() + static_cast<long>(i),
-                                              flat.begin() + static_cast<long>(i + columns.size())});
-    SweepResult result;
-    result.n_resumed = done.size();
-
-    const double rho = fp.fluid.density_kg_per_m3, mu = fp.fluid.viscosity_Pa_s, Q = fp.settings.flow_rate_m3_per_s;
-    const auto  &g   = mp.geometry;
+    CheckpointedOpenings           solver(mp, fp, dir, "openings-partial", fingerprint, mpi, "design: openings",
+                                          s.initial_openings);
+    SweepResult                    result;
+    result.n_resumed = solver.n_resumed();
     std::map<double, OpeningPoint> solved; // this sweep's points
-    Progress progress("design: openings", s.initial_openings, 0, !root);
-    const auto solve = [&](double x) -> const OpeningPoint & {
-      if (const auto it = done.find(x); it != done.end())
-        {
-          if (root)
-            progress.step(format_number(x * 1e6) + " um: from the checkpoint");
-          return solved[x] = it->second;
-        }
-      const auto          valve = mesher::mesh_valve(mp, x, false);
-      const StokesResult  r     = solve_stokes(valve.mesh, fp);
-      OpeningPoint        p;
-      p.opening_m                 = x;
-      p.R_Pa_s_per_m3             = r.R_pressure_Pa_s_per_m3;
-      p.R_dissipation_Pa_s_per_m3 = r.R_dissipation_Pa_s_per_m3;
-      p.reed_force_N              = r.reed_force_N[2];
-      p.A_eff_m2                  = r.A_eff_m2;
-      p.pressure_drop_Pa          = r.inlet_pressure_Pa - r.outlet_pressure_Pa;
-      p.R_thin_gap_Pa_s_per_m3    = thin_gap_R(mp, valve.info.closed_to_m, x, mu);
-      // Reynolds numbers: in the port (diameter D) and at the gap's exit
-      // (2 h U / nu with U = Q / (perimeter h): independent of h).
-      p.reynolds_port          = 4 * rho * Q / (M_PI * g.port_diameter_m * mu);
-      p.reynolds_gap_exit      = 2 * rho * Q / ((2 * g.reed_length_m + g.reed_width_m) * mu);
-      p.mass_balance_rel_error = r.mass_balance_rel_error;
-      p.n_dofs                 = static_cast<double>(r.n_dofs);
-      p.iterations             = r.iterations;
-      p.wall_time_s            = r.wall_time_s;
-      // Every process holds the root's numbers (the sums are reduced, but
-      // the thin-gap estimate and timings are each process's own).
-      const auto row = mpi.broadcast(p.row());
-      p              = OpeningPoint::from_row(row);
-      if (!(p.R_Pa_s_per_m3 > 0) || !(p.A_eff_m2 > 0))
-        throw std::runtime_error("the Stokes solution at " + format_number(x) + " m gives R = " +
-                                 format_number(p.R_Pa_s_per_m3) + ", A_eff = " + format_number(p.A_eff_m2));
-      if (root)
-        {
-          checkpoint->append(csv_row(row));
-          char what[200];
-          std::snprintf(what, sizeof(what), "%.4g um: R = %.4e Pa s/m^3, A_eff = %.3f mm^2, %.0f DoFs, %.1f s",
-                        x * 1e6, p.R_Pa_s_per_m3, p.A_eff_m2 * 1e6, p.n_dofs, p.wall_time_s);
-          progress.step(what);
-        }
-      return solved[x] = p;
-    };
+    const auto solve = [&](double x) -> const OpeningPoint & { return solved[x] = solver.get(x); };
     const auto sorted = [&]() {
       std::vector<OpeningPoint> v;
       for (const auto &[x, p] : solved)
@@ -193,7 +245,7 @@ namespace rectify::stokes
     }
     while (!todo.empty())
       {
-        progress.extend(todo.size());
+        solver.extend(todo.size());
         std::vector<std::pair<double, double>> next;
         for (const auto &[a, b] : todo)
           {
@@ -201,7 +253,6 @@ namespace rectify::stokes
               {
                 // Too short to split, or out of solves: leave it unchecked but say so.
                 result.checks.push_back({a, b, std::sqrt(a * b), 0, 0, false, true});
-                progress.extend(0);
                 result.converged = false;
                 continue;
               }

@@ -68,6 +68,18 @@ namespace rectify::stokes
     std::size_t n_resumed = 0;
   };
 
+  /// Meshes and solves one opening; every process returns the root's numbers.
+  OpeningPoint solve_opening(const mesher::MeshParameters &mesh, const FlowParameters &flow, double opening_m,
+                             const MpiSession &mpi);
+
+  /// The given openings, each solved once: checkpointed in
+  /// `checkpoint_dir`/map-partial.csv (resumable). `n_resumed`: how many came from it.
+  std::vector<OpeningPoint> fixed_resistance_sweep(const mesher::MeshParameters &mesh, const FlowParameters &flow,
+                                                   const std::vector<double> &openings,
+                                                   const std::filesystem::path &checkpoint_dir,
+                                                   const nlohmann::json &fingerprint, const MpiSession &mpi,
+                                                   std::size_t *n_resumed = nullptr);
+
   /// `checkpoint_dir`: the root's checkpoint folder (openings-partial.csv).
   /// `fingerprint`: what the solves depend on (refuses a checkpoint of others).
   SweepResult resistance_sweep(const mesher::MeshParameters &mesh, const FlowParameters &flow,

@@ -1,6 +1,7 @@
 #include "system/parameters.h"
 
 #include "common/io.h"
+#include "maps/reed_map.h"
 
 #include <cmath>
 #include <numbers>
@@ -78,32 +79,9 @@ namespace rectify::system
                            ": give either properties_map or stiffness_N_per_m and "
                            "effective_mass_kg, not both");
         const auto path = f.resolve(map);
-        const auto csv  = read_csv(path);
-        const auto ct   = csv.column_index("thickness_m", path.string());
-        const auto ck   = csv.column_index("stiffness_N_per_m", path.string());
-        const auto cm   = csv.column_index(mass_column, path.string());
-        for (std::size_t r = 1; r < csv.rows.size(); ++r)
-          if (!(csv.rows[r][ct] > csv.rows[r - 1][ct]))
-            throw InputError("reed map '" + path.string() + "' data row " + std::to_string(r + 1) +
-                             ": thickness_m = " + format_number(csv.rows[r][ct]) +
-                             " does not increase");
-        if (csv.rows.empty() || thickness < csv.rows.front()[ct] || thickness > csv.rows.back()[ct])
-          throw InputError(f.where(t, "properties_thickness_m") + " = " + format_number(thickness) +
-                           ": outside the reed map '" + path.string() + "'" +
-                           (csv.rows.empty() ? " (no rows)" :
-                                               " (" + format_number(csv.rows.front()[ct]) + " .. " +
-                                                 format_number(csv.rows.back()[ct]) + " m)"));
-        std::size_t i = 0;
-        while (i + 2 < csv.rows.size() && thickness > csv.rows[i + 1][ct])
-          ++i;
-        const auto  &a = csv.rows[i];
-        const auto  &b = csv.rows.size() > 1 ? csv.rows[i + 1] : csv.rows[i];
-        const double s = b[ct] > a[ct] ? (thickness - a[ct]) / (b[ct] - a[ct]) : 0.0;
-        p.stiffness_N_per_m = a[ck] + s * (b[ck] - a[ck]);
-        p.effective_mass_kg = a[cm] + s * (b[cm] - a[cm]);
-        if (!(p.stiffness_N_per_m > 0) || !(p.effective_mass_kg > 0))
-          throw InputError("reed map '" + path.string() + "': non-positive stiffness or mass at " +
-                           format_number(thickness) + " m");
+        const auto at   = maps::ReedMap::read(path).at(thickness, mass_column, f.where(t, "properties_thickness_m"));
+        p.stiffness_N_per_m = at.stiffness_N_per_m;
+        p.effective_mass_kg = at.mass_kg;
         p.source = path.string() + " at " + format_number(thickness) + " m (" + mass_column + ")";
       }
     p.damping_ratio     = f.real(t, "damping_ratio", p.damping_ratio, non_negative);
