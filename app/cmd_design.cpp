@@ -37,9 +37,10 @@ namespace rectify::app
       const auto r = design::run_design(file, out, mpi);
       if (!root)
         return;
-      std::printf("map set %s: k_r = %.6g N/m, f1 in oil %.5g Hz; R(x), A_eff(x) at %zu openings, interpolation "
-                  "error R %.3f %%, A_eff %.3f %% (tolerance %.3g %%)%s; %.0f s\n",
-                  out.c_str(), r.k_N_per_m, r.f1_in_fluid_Hz, r.sweep.points.size(), 100 * r.sweep.max_R_error,
+      std::printf("map set %s: k_r = %.6g N/m, f1 in oil %.5g Hz; R(x), A_eff(x) at %zu openings (%zu from the "
+                  "checkpoint), interpolation error R %.3f %%, A_eff %.3f %% (tolerance %.3g %%)%s; %.0f s\n",
+                  out.c_str(), r.k_N_per_m, r.f1_in_fluid_Hz, r.sweep.points.size(), r.sweep.n_resumed,
+                  100 * r.sweep.max_R_error,
                   100 * r.sweep.max_A_error, 100 * ss.tolerance,
                   r.sweep.converged ? "" : " NOT CONVERGED (min_ratio or max_openings reached)", r.wall_time_s);
     }

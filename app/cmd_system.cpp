@@ -90,6 +90,23 @@ namespace rectify::app
       return system::load_valve_maps(p);
     }
 
+    /// Where each valve's R(x) and force area come from, for the echo.
+    std::string valve_maps_text(const system::SystemParameters &p)
+    {
+      const auto one = [&](std::size_t v) {
+        return p.valves.map_set[v].empty() ? "R(x) " + p.valves.resistance_map + " with A_r" :
+                                             "map set " + p.valves.map_set[v];
+      };
+      return one(0) == one(1) ? one(0) : "outlet: " + one(0) + "; inlet: " + one(1);
+    }
+
+    std::string reed_text(const system::SystemParameters &p)
+    {
+      char buf[96];
+      std::snprintf(buf, sizeof(buf), "k_r %.6g N/m, m_r %.6g kg", p.reed.stiffness_N_per_m, p.reed.effective_mass_kg);
+      return std::string(buf) + " (" + p.reed.source + ")";
+    }
+
     system::Drive make_drive(const system::SystemParameters &p, double frequency)
     {
       if (p.drive.waveform == "sine")
@@ -122,8 +139,8 @@ namespace rectify::app
                                       format_number(p.drive.current_pp_A) + " A p-p, " +
                                         format_number(p.drive.current_bias_A) + " A bias" :
                                       p.drive.waveform},
-                        {"valves", p.valves.map_set[0].empty() ? "R(x) " + p.valves.resistance_map + ", A_r" : "map set " + p.valves.map_set[0] + (p.valves.map_set[1] != p.valves.map_set[0] ? " / " + p.valves.map_set[1] : std::string())},
-                        {"reed", "k_r " + format_number(p.reed.stiffness_N_per_m) + " N/m, m_r " + format_number(p.reed.effective_mass_kg) + " kg (" + p.reed.source + ")"},
+                        {"valve maps", valve_maps_text(p)},
+                        {"reed", reed_text(p)},
                         {"rtol", format_number(p.solver.relative_tolerance)},
                         {"jacobian", p.solver.jacobian},
                         {"out", o.out_dir}});
@@ -253,6 +270,8 @@ namespace rectify::app
         series_list += (series_list.empty() ? "" : ", ") + n;
       echo_settings("sweep", {{"case", o.case_path},
                      {"scenario", o.scenario},
+                     {"valve maps", valve_maps_text(p)},
+                     {"reed", reed_text(p)},
                      {"series", series_list},
                      {"frequencies [Hz]", format_number(o.from_Hz) + " .. " + format_number(o.to_Hz) +
                                             ", " + std::to_string(o.n) + " " + o.spacing + "-spaced"},

@@ -32,6 +32,13 @@ namespace rectify
                  label_.c_str(), n_done_, n_total_, what.c_str(), elapsed, left);
     std::fflush(stderr);
   }
+  void Progress::skip()
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++n_done_;
+    ++n_done_at_start_;
+  }
+
   void Progress::extend(std::size_t more)
   {
     std::lock_guard<std::mutex> lock(mutex_);

@@ -15,6 +15,9 @@ namespace rectify
              bool quiet = false);
     /// One item finished; `what` describes it ("1200 Hz: 0.41 s").
     void step(const std::string &what);
+    /// One item found finished (a checkpoint): counted, not printed, and not
+    /// in the time estimate.
+    void skip();
     /// `more` items were added to the run (adaptive runs learn their size as they go).
     void extend(std::size_t more);
 

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <ctime>
+#include <fstream>
 #include <sstream>
 
 #include "common/io.h"
@@ -135,11 +136,26 @@ namespace rectify::design
     const auto ss    = stokes::SweepSettings::from_case(file);
     const auto deps  = map_set_provenance(file);
     const auto reed_dir = out / "reed", partial = out / "partial";
+    // A finished map set of another case in the folder is not overwritten.
+    if (std::filesystem::exists(out / "manifest.json"))
+      {
+        std::ifstream  in(out / "manifest.json");
+        nlohmann::json old;
+        try
+          {
+            old = nlohmann::json::parse(in);
+          }
+        catch (const nlohmann::json::exception &)
+          {
+          }
+        if (!old.contains("depends_on") || old["depends_on"] != deps)
+          throw InputError("'" + out.string() + "' holds a map set made for another case (or not a map set): "
+                           "choose another --out, or remove it");
+      }
     if (root)
       {
         ensure_directory(reed_dir);
         ensure_directory(partial);
-        std::filesystem::remove(out / "manifest.json"); // unfinished until written again
       }
     DesignResult result;
 
@@ -209,7 +225,10 @@ namespace rectify::design
         x.push_back(p.opening_m), R.push_back(p.R_Pa_s_per_m3);
         xa.push_back(p.opening_m), A.push_back(p.A_eff_m2);
       }
-    nlohmann::json checks = nlohmann::json::array(), points = nlohmann::json::array();
+    nlohmann::json checks = nlohmann::json::array(), points = nlohmann::json::array(),
+                   modes  = nlohmann::json::array();
+    for (const auto &m : r.modes)
+      modes.push_back({{"frequency_Hz", m.frequency_Hz}, {"kind", m.kind}, {"modal_mass_kg", m.modal_mass_kg}});
     for (const auto &c : result.sweep.checks)
       checks.push_back({{"from_m", c.from_m}, {"to_m", c.to_m}, {"midpoint_m", c.midpoint_m},
                         {"R_error", c.R_error}, {"A_eff_error", c.A_error}, {"passed", c.passed},
@@ -234,6 +253,7 @@ namespace rectify::design
         {"reed_shape_hash", content_hash(shape)},
         {"closed_R_Pa_s_per_m3", 1e17},
         {"n_processes", mpi.size()}}},
+      {"reed_modes", modes},
       {"points", points},
       {"interpolation_error",
        {{"tolerance", ss.tolerance},
@@ -296,6 +316,12 @@ namespace rectify::design
        << "| m_r, eq. 3.21 (x" << sp.settings.added_mass_factor << ") [kg] | " << fmt("%.4g", fluid.eq321_mass_kg)
        << " | | | 3.643e-4 |\n"
        << "| f1 with eq. 3.21's mass [Hz] | " << fmt("%.5g", fluid.eq321_frequency_Hz) << " | | | 680 |\n\n"
+       << "Modes in vacuum:";
+    for (std::size_t i = 0; i < r.modes.size(); ++i)
+      md << (i ? "," : "") << " " << fmt("%.5g", r.modes[i].frequency_Hz) << " Hz (" << r.modes[i].kind << ")";
+    md << ". Plate mass " << fmt("%.4g", r.plate_mass_kg) << " kg, first-mode mass at the tip "
+       << fmt("%.4g", reed.modal_mass_kg) << " kg, added mass (eq. 3.20) " << fmt("%.4g", bounds.added_mass_kg)
+       << " kg.\n\n"
        << "The flow meshes use the reed's FE shape under the port load (reed/shape.png), not the beam shape.\n\n"
        << "## R(x) and A_eff(x)\n\n"
        << "Openings chosen by accuracy: " << ss.initial_openings << " log-spaced from "

@@ -46,7 +46,9 @@ def velocity(run):
         v = t[name]
         i = max(range(len(v)), key=lambda k: v[k])
         first_rev = next((f[k] for k in range(len(v)) if f[k] > 100 and v[k] < 0), float('nan'))
-        out[name] = (v[i], f[i], first_rev)
+        below = [k for k in range(len(v)) if not f[k] >= first_rev]
+        j = max(below, key=lambda k: v[k])
+        out[name] = (v[i], f[i], first_rev, v[j], f[j])
     return out
 
 
@@ -87,7 +89,9 @@ def main():
     row('stored pressure at 1200 Hz [psi]', lambda r: f'{r["stored"][2]:.0f}')
     for series in ('dynamic', 'ideal', 'reed-whatif'):
         key = lambda r: next(k for k in r['velocity'] if k.startswith(series))
-        row(f'{series}: peak velocity [m/s] at [Hz]',
+        row(f'{series}: peak velocity below the first reversal [m/s] at [Hz]',
+            lambda r: '{:.3f} at {:.0f}'.format(*r['velocity'][key(r)][3:5]))
+        row(f'{series}: highest velocity of the sweep [m/s] at [Hz]',
             lambda r: '{:.3f} at {:.0f}'.format(*r['velocity'][key(r)][:2]))
         row(f'{series}: first reversal above 100 Hz [Hz]', lambda r: f'{r["velocity"][key(r)][2]:.0f}')
     row('outlet reed lag behind the piston flow at 1420 Hz [cycle]', lambda r: f'{r["phase"]:.2f}')

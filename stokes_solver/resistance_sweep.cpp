@@ -164,7 +164,8 @@ namespace rectify::stokes
         if (const auto it = done_.find(x); it != done_.end())
           {
             if (root_)
-              progress_->step(format_number(x * 1e6) + " um: from the checkpoint");
+              progress_->skip();
+            ++n_reused_;
             return it->second;
           }
         const OpeningPoint p = solve_opening(mp_, fp_, x, mpi_);
@@ -184,6 +185,7 @@ namespace rectify::stokes
 
       void        extend(std::size_t more) { progress_->extend(more); }
       std::size_t n_resumed() const { return n_resumed_; }
+      std::size_t n_reused() const { return n_reused_; } ///< openings taken from the checkpoint so far
 
     private:
       const mesher::MeshParameters  &mp_;
@@ -193,7 +195,7 @@ namespace rectify::stokes
       std::unique_ptr<Checkpoint>    checkpoint_;
       std::unique_ptr<Progress>      progress_;
       std::map<double, OpeningPoint> done_;
-      std::size_t                    n_resumed_ = 0;
+      std::size_t                    n_resumed_ = 0, n_reused_ = 0;
     };
   } // namespace
 
@@ -207,7 +209,7 @@ namespace rectify::stokes
     for (double x : openings)
       points.push_back(solver.get(x));
     if (n_resumed != nullptr)
-      *n_resumed = solver.n_resumed();
+      *n_resumed = solver.n_reused();
     return points;
   }
 
@@ -276,7 +278,8 @@ namespace rectify::stokes
           }
         todo = std::move(next);
       }
-    result.points = sorted();
+    result.points    = sorted();
+    result.n_resumed = solver.n_reused();
     return result;
   }
 } // namespace rectify::stokes

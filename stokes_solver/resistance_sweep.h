@@ -65,7 +65,7 @@ namespace rectify::stokes
     /// parents that passed (an upper estimate for the final map's error):
     double      max_R_error = 0, max_A_error = 0;
     bool        converged = true; ///< no check was left failing
-    std::size_t n_resumed = 0;
+    std::size_t n_resumed = 0; ///< openings taken from the checkpoint
   };
 
   /// Meshes and solves one opening; every process returns the root's numbers.

@@ -72,7 +72,8 @@ TEST(Design, MapSetInterpolatesExtraSolvesTwoProcessesAgreeAndItResumes)
       EXPECT_GT(p["wall_time_s"].get<double>(), 0);
     }
   EXPECT_TRUE(manifest["interpolation_error"]["converged"].get<bool>());
-  EXPECT_LE(manifest["interpolation_error"]["R_max_rel"].get<double>(), 0.01);
+  EXPECT_LE(manifest["interpolation_error"]["R_max_rel"].get<double>(), 0.02); // the case's tolerance
+  EXPECT_LE(manifest["interpolation_error"]["A_eff_max_rel"].get<double>(), 0.02);
   ASSERT_TRUE(set.reed());
   EXPECT_NEAR(set.reed()->stiffness_N_per_m, 6500, 300); // coarse reed, docs/stiffness.md: 6636 at 6x5x1
   EXPECT_NEAR(set.seated_area_m2(), M_PI * 0.25 * 3.175e-3 * 3.175e-3, 1e-12);
@@ -94,8 +95,8 @@ TEST(Design, MapSetInterpolatesExtraSolvesTwoProcessesAgreeAndItResumes)
                                     format_number(x) + " --out " + (dir / ("extra" + std::to_string(k))).string());
       ASSERT_EQ(st.exit_code, 0) << st.output;
       const auto s = read_json(dir / ("extra" + std::to_string(k)) / "summary.json");
-      EXPECT_NEAR(set.resistance().evaluate(x).resistance / s["R_Pa_s_per_m3"].get<double>(), 1.0, 0.01) << x;
-      EXPECT_NEAR(set.area().evaluate(x).area / s["A_eff_m2"].get<double>(), 1.0, 0.01) << x;
+      EXPECT_NEAR(set.resistance().evaluate(x).resistance / s["R_Pa_s_per_m3"].get<double>(), 1.0, 0.02) << x;
+      EXPECT_NEAR(set.area().evaluate(x).area / s["A_eff_m2"].get<double>(), 1.0, 0.02) << x;
     }
 
   // Two processes: the same map to 1e-9.
@@ -121,13 +122,12 @@ TEST(Design, MapSetInterpolatesExtraSolvesTwoProcessesAgreeAndItResumes)
   std::filesystem::remove(dir / "one" / "manifest.json");
   const auto again = rectify_cli(args + (dir / "one").string());
   ASSERT_EQ(again.exit_code, 0) << again.output;
-  std::size_t resumed = 0, solved = 0;
-  for (std::size_t pos = 0; (pos = again.output.find("from the checkpoint", pos)) != std::string::npos; ++pos)
-    ++resumed;
+  std::size_t solved = 0;
   for (std::size_t pos = 0; (pos = again.output.find("DoFs,", pos)) != std::string::npos; ++pos)
     ++solved;
   EXPECT_EQ(solved, 2u) << again.output;
-  EXPECT_EQ(resumed + solved, points.size()) << again.output;
+  EXPECT_NE(again.output.find("(" + std::to_string(points.size() - 2) + " from the checkpoint)"), std::string::npos)
+    << again.output;
   const auto set3 = maps::MapSet::read(dir / "one");
   EXPECT_EQ(set3.resistance().resistances(), set.resistance().resistances());
   std::filesystem::remove_all(dir);

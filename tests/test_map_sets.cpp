@@ -202,6 +202,20 @@ TEST(MapSets, CaseAndMapSetMustAgree)
   refused(use + "resistance_map = \"x.csv\"\n", "resistance_map");
   refused(use + "outlet_map_set = \"" + dir.string() + "\"\n", "outlet_map_set");
   refused("[valves]\nmap_set = \"" + (dir / "nowhere").string() + "\"\n", "no such folder");
+  // One valve on the map set, the other on the thesis's R(x) and A_r.
+  const auto one = SystemParameters::from_case(
+    CaseFile::parse("[valves]\noutlet_map_set = \"" + dir.string() + "\"\n", "one.toml",
+                    reference_case_path().parent_path())); // the inlet's thesis map beside the reference case
+  const auto mixed = load_valve_maps(one);
+  EXPECT_EQ(mixed[0].seated_area_m2(), 7.917e-6);
+  EXPECT_EQ(mixed[0].area().evaluate(1e-4).area, 15e-6);
+  EXPECT_EQ(mixed[1].seated_area_m2(), one.reed.pressure_area_m2);
+  EXPECT_EQ(mixed[1].area().evaluate(1e-4).area, one.reed.pressure_area_m2);
+  EXPECT_EQ(one.reed.stiffness_N_per_m, 6492); // the reed is the map set's
+  Model m(one, mixed, ValveModel::dynamic, Scenario::no_flow, Drive::sine(50, 20, 10));
+  const auto run_mixed = run(m, options(one, 3));
+  EXPECT_GT(run_mixed.stored_pressure_Pa, 0);
+  EXPECT_LT(run_mixed.volume_balance_rel_error, 1e-3);
   // A command line's --map-set wins over the case's own [reed] values.
   auto r = SystemParameters::from_case(CaseFile::load(reference_case_path()));
   use_map_set(r, CaseFile::load(reference_case_path()), dir.string());

@@ -68,7 +68,7 @@ TEST_P(Interpolations, ExactAtNodesMonotoneBetweenAndSlopeConsistent)
 
 INSTANTIATE_TEST_SUITE_P(Maps, Interpolations,
                          ::testing::Values(Interpolation::monotone_cubic, Interpolation::log_linear,
-                                           Interpolation::linear));
+                                           Interpolation::linear, Interpolation::log_log));
 
 TEST(ResistanceMap, MonotoneCubicHasAContinuousSlope)
 {

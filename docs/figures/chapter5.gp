@@ -26,8 +26,9 @@ $thesis << EOD
 30,50
 1200,50
 EOD
-plot ref.'no-flow/stored-pressure/sweep.csv' every ::1 using 1:($2/psi) with linespoints pt 7 ps 0.6 title 'rectify, dynamic valves', \
-     '' every ::1 using 1:($3/psi) with linespoints pt 6 ps 0.6 title 'rectify, ideal valves', \
+plot ref.'no-flow/stored-pressure/sweep.csv' every ::1 using 1:($2/psi) with linespoints pt 7 ps 0.6 title 'rectify, dynamic valves, thesis R(x)', \
+     ref.'fe-maps/no-flow/stored-pressure/sweep.csv' every ::1 using 1:($2/psi) with linespoints pt 5 ps 0.6 title 'rectify, dynamic valves, FE maps', \
+     ref.'no-flow/stored-pressure/sweep.csv' every ::1 using 1:($3/psi) with linespoints pt 6 ps 0.6 title 'rectify, ideal valves', \
      $thesis using 1:2 with lines dt 2 lw 2 lc rgb 'black' title 'thesis data as its text describes it (approximate)'
 unset logscale x
 set yrange [*:*]
@@ -37,9 +38,11 @@ set title 'Mean actuator velocity (eq. 5.2), 50 lb, 20 A p-p / 10 A bias (cf. th
 set xlabel 'pumping frequency [Hz]'
 set ylabel 'mean velocity [m/s]'
 set key top left
-plot ref.'loaded/velocity/sweep.csv' every ::1 using 1:2 with linespoints pt 7 ps 0.5 title 'dynamic valves', \
-     '' every ::1 using 1:3 with linespoints pt 6 ps 0.5 title 'ideal valves', \
-     '' every ::1 using 1:4 with linespoints pt 4 ps 0.5 title 'reed what-if: 3 k_r, 0.5 m_r', \
+plot ref.'loaded/velocity/sweep.csv' every ::1 using 1:2 with linespoints pt 7 ps 0.5 title 'dynamic valves, thesis R(x)', \
+     ref.'fe-maps/loaded/velocity/sweep.csv' every ::1 using 1:2 with linespoints pt 5 ps 0.5 title 'dynamic valves, FE maps', \
+     ref.'loaded/velocity/sweep.csv' every ::1 using 1:3 with linespoints pt 6 ps 0.5 title 'ideal valves', \
+     ref.'loaded/velocity/sweep.csv' every ::1 using 1:4 with linespoints pt 4 ps 0.5 title 'reed what-if: 3 k_r, 0.5 m_r, thesis R(x)', \
+     ref.'fe-maps/loaded/velocity/sweep.csv' every ::1 using 1:4 with lines lw 2 dt 2 lc rgb 'dark-red' title 'reed what-if, FE maps', \
      0 with lines lc rgb 'black' notitle
 
 # Fig. 5.5: the last two cycles at 1420 Hz, each signal scaled by its largest magnitude there.
