@@ -5,6 +5,7 @@
 
 #include "common/case_file.h"
 #include "common/io.h"
+#include "maps/metadata.h"
 
 namespace rectify::maps
 {
@@ -61,20 +62,7 @@ namespace rectify::maps
   AreaMap AreaMap::read(const std::filesystem::path &path)
   {
     const CsvData  csv  = read_csv(path);
-    nlohmann::json meta = nlohmann::json::object();
-    for (const auto &c : csv.comments)
-      if (const auto pos = c.find("meta:"); pos != std::string::npos)
-        {
-          try
-            {
-              meta = nlohmann::json::parse(c.substr(pos + 5));
-            }
-          catch (const nlohmann::json::exception &e)
-            {
-              throw InputError("area map '" + path.string() + "': the '# meta:' line is not valid JSON: " +
-                               e.what());
-            }
-        }
+    nlohmann::json meta = read_metadata(csv, "area map '" + path.string() + "'");
     const std::size_t   cx = csv.column_index("opening_m", path.string());
     const std::size_t   ca = csv.column_index("A_eff_m2", path.string());
     std::vector<double> x, a;

@@ -5,6 +5,7 @@
 
 #include "common/case_file.h"
 #include "common/io.h"
+#include "maps/metadata.h"
 
 namespace rectify::maps
 {
@@ -54,19 +55,7 @@ namespace rectify::maps
   ReedMap ReedMap::read(const std::filesystem::path &path)
   {
     const CsvData  csv  = read_csv(path);
-    nlohmann::json meta = nlohmann::json::object();
-    for (const auto &c : csv.comments)
-      if (const auto pos = c.find("meta:"); pos != std::string::npos)
-        {
-          try
-            {
-              meta = nlohmann::json::parse(c.substr(pos + 5));
-            }
-          catch (const nlohmann::json::exception &e)
-            {
-              throw InputError("reed map '" + path.string() + "': the '# meta:' line is not valid JSON: " + e.what());
-            }
-        }
+    nlohmann::json meta = read_metadata(csv, "reed map '" + path.string() + "'");
     // thickness and stiffness first, then every other column as it is
     std::vector<std::string> names{"thickness_m", "stiffness_N_per_m"};
     std::vector<std::size_t> index{csv.column_index("thickness_m", path.string()),

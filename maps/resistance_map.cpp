@@ -6,6 +6,7 @@
 
 #include "common/case_file.h"
 #include "common/io.h"
+#include "maps/metadata.h"
 
 namespace rectify::maps
 {
@@ -88,25 +89,10 @@ namespace rectify::maps
     std::transform(resistance_.begin(), resistance_.end(), log_resistance_.begin(),
                    [](double r) { return std::log(r); });
 
-    // Fritsch-Carlson node slopes of log R: zero where the secants change sign
-    // or vanish, else the weighted harmonic mean of the neighbouring secants
-    // (Fritsch & Butland 1984), one-sided secants at the ends. Monotone data
-    // give a monotone interpolant.
-    const std::size_t   n = opening_.size();
-    std::vector<double> secant(n - 1);
-    for (std::size_t i = 0; i + 1 < n; ++i)
-      secant[i] = (log_resistance_[i + 1] - log_resistance_[i]) / (opening_[i + 1] - opening_[i]);
-    log_slope_.assign(n, 0.0);
-    log_slope_.front() = secant.front();
-    log_slope_.back()  = secant.back();
-    for (std::size_t i = 1; i + 1 < n; ++i)
-      {
-        if (secant[i - 1] * secant[i] <= 0.0)
-          continue;
-        const double h0 = opening_[i] - opening_[i - 1], h1 = opening_[i + 1] - opening_[i];
-        const double w1 = 2 * h1 + h0, w2 = h1 + 2 * h0;
-        log_slope_[i]   = (w1 + w2) / (w1 / secant[i - 1] + w2 / secant[i]);
-      }
+    // Fritsch-Carlson node slopes of log R (maps/monotone_cubic.h): monotone
+    // data give a monotone interpolant.
+    const std::size_t n = opening_.size();
+    log_cubic_          = MonotoneCubic(opening_, log_resistance_);
     if (interpolation_ == Interpolation::log_log)
       {
         if (n < 3)
@@ -154,37 +140,16 @@ namespace rectify::maps
         return {r, r * dlog / dx, false};
       }
     // Cubic Hermite on log R.
-    const double s2 = s * s, s3 = s2 * s;
-    const double y0 = log_resistance_[i], y1 = log_resistance_[i + 1];
-    const double m0 = log_slope_[i] * dx, m1 = log_slope_[i + 1] * dx;
-    const double y  = (2 * s3 - 3 * s2 + 1) * y0 + (s3 - 2 * s2 + s) * m0 +
-                     (-2 * s3 + 3 * s2) * y1 + (s3 - s2) * m1;
-    const double dy = ((6 * s2 - 6 * s) * y0 + (3 * s2 - 4 * s + 1) * m0 +
-                       (-6 * s2 + 6 * s) * y1 + (3 * s2 - 2 * s) * m1) / dx;
-    const double r  = std::exp(y);
-    return {r, r * dy, false};
+    const auto   v = log_cubic_.evaluate(x);
+    const double r = std::exp(v.value);
+    return {r, r * v.derivative, false};
   }
 
   ResistanceMap ResistanceMap::read(const std::filesystem::path &path,
                                     Interpolation               interpolation)
   {
     const CsvData  csv = read_csv(path);
-    nlohmann::json meta = nlohmann::json::object();
-    for (const auto &c : csv.comments)
-      {
-        const auto pos = c.find("meta:");
-        if (pos == std::string::npos)
-          continue;
-        try
-          {
-            meta = nlohmann::json::parse(c.substr(pos + 5));
-          }
-        catch (const nlohmann::json::exception &e)
-          {
-            throw InputError("resistance map '" + path.string() +
-                             "': the '# meta:' line is not valid JSON: " + e.what());
-          }
-      }
+    nlohmann::json meta = read_metadata(csv, "resistance map '" + path.string() + "'");
     const std::size_t cx = csv.column_index("opening_m", path.string());
     const std::size_t cr = csv.column_index("R_Pa_s_per_m3", path.string());
     std::vector<double> x, r;

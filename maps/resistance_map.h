@@ -87,7 +87,7 @@ namespace rectify::maps
     std::vector<double> opening_;
     std::vector<double> resistance_;
     std::vector<double> log_resistance_;
-    std::vector<double> log_slope_; ///< d(log R)/dx at the nodes (monotone cubic)
+    MonotoneCubic       log_cubic_; ///< log R over x (monotone_cubic)
     MonotoneCubic       log_log_;   ///< log R over log x, open nodes (log_log)
     double              first_exponent_ = 0; ///< d log R / d log x of the first open interval
     std::string         name_;

@@ -12,6 +12,7 @@
 #include "common/io.h"
 #include "maps/map_set.h"
 #include "model_helpers.h"
+#include "tests/cli_helpers.h"
 #include "system/model.h"
 #include "system/simulation.h"
 
@@ -21,22 +22,7 @@ using namespace rectify::test_support;
 
 namespace
 {
-  std::filesystem::path fresh_dir(const std::string &name)
-  {
-    const auto dir = std::filesystem::temp_directory_path() / ("rectify_test_" + name);
-    std::filesystem::remove_all(dir);
-    std::filesystem::create_directories(dir);
-    return dir;
-  }
-
-  RunOptions options(const SystemParameters &p, std::size_t cycles)
-  {
-    RunOptions o;
-    o.n_cycles                  = cycles;
-    o.relative_tolerance        = p.solver.relative_tolerance;
-    o.absolute_tolerance_factor = p.solver.absolute_tolerance_factor;
-    return o;
-  }
+  RunOptions options(const SystemParameters &p, std::size_t cycles) { return run_options(p, cycles); }
 
   /// The reference valve with R(x) from the thesis and a force area that
   /// falls from 2 A_r to A_r over the openings (a map set's shape), seated A_r.
@@ -51,7 +37,7 @@ namespace
 TEST(MapSets, TheThesisValveAsAMapSetReproducesTheThesisCaseExactly)
 {
   const auto p   = reference();
-  const auto dir = fresh_dir("thesis_map_set");
+  const auto dir = scratch("thesis_map_set");
   maps::map_set_from_resistance(reference_map(p), p.reed.pressure_area_m2).write(dir);
   const auto set = maps::MapSet::read(dir);
   struct Case
@@ -168,7 +154,7 @@ TEST(MapSets, AnalyticJacobianHoldsWithAVaryingForceArea)
 
 TEST(MapSets, CaseAndMapSetMustAgree)
 {
-  const auto dir = fresh_dir("case_map_set");
+  const auto dir = scratch("case_map_set");
   maps::ReedProperties reed;
   reed.stiffness_N_per_m = 6492, reed.modal_mass_kg = 7.8e-6, reed.modal_mass_in_fluid_kg = 3.4e-5;
   reed.effective_mass_eq321_kg = 3.83e-4, reed.frequency_Hz = 2843, reed.frequency_in_fluid_Hz = 1351;

@@ -157,6 +157,7 @@ TEST(ResistanceMap, FileRoundTripAndFileErrors)
 #include "common/valve_geometry.h"
 #include "maps/area_map.h"
 #include "maps/map_set.h"
+#include "tests/cli_helpers.h"
 
 namespace
 {
@@ -236,14 +237,6 @@ TEST(AreaMap, ExactAtNodesHeldOutsideSlopeConsistentAndChecked)
 
 namespace
 {
-  std::filesystem::path fresh_dir(const std::string &name)
-  {
-    const auto dir = std::filesystem::temp_directory_path() / ("rectify_test_" + name);
-    std::filesystem::remove_all(dir);
-    std::filesystem::create_directories(dir);
-    return dir;
-  }
-
   /// A small map set made for `geometry` (the reference's unless changed).
   maps::MapSet small_map_set(const ValveGeometry &geometry = {})
   {
@@ -262,7 +255,7 @@ namespace
 
 TEST(MapSet, WrittenAndReadBackExactly)
 {
-  const auto dir = fresh_dir("mapset_roundtrip");
+  const auto dir = test_support::scratch("mapset_roundtrip");
   const auto set = small_map_set();
   set.write(dir);
   const auto back = maps::MapSet::read(dir);
@@ -310,7 +303,7 @@ TEST(MapSet, FromAnotherGeometryFluidOrMaterialIsRefusedNamingTheKey)
 
 TEST(MapSet, MissingIncompleteTamperedOrNonFiniteIsAClearError)
 {
-  const auto dir = fresh_dir("mapset_bad");
+  const auto dir = test_support::scratch("mapset_bad");
   const auto expect_error = [&](const std::string &needle) {
     try
       {

@@ -38,14 +38,7 @@ namespace
                  Drive::sine(f, pp < 0 ? p.drive.current_pp_A : pp, bias < 0 ? p.drive.current_bias_A : bias));
   }
 
-  RunOptions options(const SystemParameters &p, std::size_t cycles)
-  {
-    RunOptions o;
-    o.n_cycles           = cycles;
-    o.relative_tolerance = p.solver.relative_tolerance;
-    o.absolute_tolerance_factor = p.solver.absolute_tolerance_factor;
-    return o;
-  }
+  RunOptions options(const SystemParameters &p, std::size_t cycles) { return run_options(p, cycles); }
 
   /// One reed (eq. 3.9) under a prescribed pressure difference dp(t), on the
   /// same reed functions and integrator as the model.
