@@ -6,6 +6,7 @@
 
 #include "app/commands.h"
 #include "common/io.h"
+#include "common/version.h"
 #include "mesher/parameters.h"
 #include "stiffness_solver/parameters.h"
 #include "stokes_solver/parameters.h"
@@ -19,6 +20,7 @@ namespace rectify::app
     {
       std::string case_path;
       std::string out_dir;
+      bool        case_given = false;
     };
 
     void check(const CheckOptions &o)
@@ -40,9 +42,10 @@ namespace rectify::app
                               {"A_eff_range_m2", {*std::min_element(v.area().areas().begin(), v.area().areas().end()),
                                                   *std::max_element(v.area().areas().begin(), v.area().areas().end())}},
                               {"reed", v.reed() ? v.reed()->to_json() : nlohmann::json(nullptr)}});
-      const nlohmann::json summary = {
+      nlohmann::json summary = {
         {"command", "check"},
         {"rectify_version", RECTIFY_VERSION},
+        {"build", build_info()},
         {"case", o.case_path},
         {"valid", true},
         {"system", sys.to_json()},
@@ -91,6 +94,19 @@ namespace rectify::app
           {"poisson_ratio", st.material.poisson_ratio},
           {"density_kg_per_m3", st.material.density_kg_per_m3}}}};
       const std::filesystem::path out(o.out_dir);
+      if (!o.case_given)
+        {
+          // No --case: say where the default case was looked for.
+          nlohmann::json places = nlohmann::json::array();
+          std::fprintf(stderr, "no --case: the reference case, looked for in this order:\n");
+          for (const auto &p : reference_case_search_path())
+            {
+              const bool found = std::filesystem::is_regular_file(p);
+              places.push_back({{"path", p.string()}, {"exists", found}});
+              std::fprintf(stderr, "  %s%s\n", p.c_str(), found ? "  (exists)" : "");
+            }
+          summary["default_case_search"] = places;
+        }
       ensure_directory(out);
       write_json(out / "summary.json", summary);
       std::printf("%s: valid; every parameter, given or default, in %s\n", o.case_path.c_str(),
@@ -105,6 +121,9 @@ namespace rectify::app
       "check", "Check a case file as every stage reads it, and list all its parameters.\n"
                "Example: rectify check --case my.toml --out runs/check");
     add_case_and_out(*cmd, o->case_path, o->out_dir);
-    cmd->callback([o]() { check(*o); });
+    cmd->callback([o, cmd]() {
+      o->case_given = cmd->count("--case") > 0;
+      check(*o);
+    });
   }
 } // namespace rectify::app

@@ -7,6 +7,7 @@
 
 #include "app/commands.h"
 #include "common/io.h"
+#include "common/version.h"
 #include <fstream>
 #include <sstream>
 
@@ -176,6 +177,7 @@ namespace rectify::app
       auto summary = diagnosis::to_json(result, runs);
       summary["command"]         = "diagnose";
       summary["rectify_version"] = RECTIFY_VERSION;
+      summary["build"] = build_info();
       summary["case"]            = o.case_path;
       summary["scenario"]        = o.scenario;
       summary["data"]            = o.data;

@@ -3,6 +3,7 @@
 
 #include "app/commands.h"
 #include "common/io.h"
+#include "common/version.h"
 #include "common/plot.h"
 #include "maps/map_set.h"
 #include "maps/resistance_map.h"
@@ -47,6 +48,7 @@ namespace rectify::app
       write_json(out / "summary.json",
                  {{"command", "map-thesis"},
                   {"rectify_version", RECTIFY_VERSION},
+                  {"build", build_info()},
                   {"n_nodes", map.openings().size()},
                   {"opening_m", map.openings()},
                   {"R_Pa_s_per_m3", map.resistances()},

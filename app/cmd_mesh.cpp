@@ -3,6 +3,7 @@
 
 #include "app/commands.h"
 #include "common/io.h"
+#include "common/version.h"
 #include "common/plot.h"
 #include "mesher/mesher.h"
 #include "mesher/writers.h"
@@ -78,6 +79,7 @@ namespace rectify::app
       nlohmann::json  summary = mesher::to_json(info);
       summary["command"]         = "mesh";
       summary["rectify_version"] = RECTIFY_VERSION;
+      summary["build"] = build_info();
       summary["case"]            = o.case_path;
       summary["boundary_ids"]    = {{"1", "inlet"}, {"2", "outlet"}, {"3", "walls"}, {"4", "reed"}};
       if (!o.no_files)

@@ -8,6 +8,7 @@
 #include "app/commands.h"
 #include "common/checkpoint.h"
 #include "common/io.h"
+#include "common/version.h"
 #include "common/plot.h"
 #include "common/progress.h"
 #include "stiffness_solver/analytic.h"
@@ -109,6 +110,7 @@ namespace rectify::app
       nlohmann::json summary = {
         {"command", "stiffness"},
         {"rectify_version", RECTIFY_VERSION},
+        {"build", build_info()},
         {"case", o.case_path},
         {"load", to_string(s.load)},
         {"k_N_per_m", r.k_N_per_m},
@@ -234,6 +236,7 @@ namespace rectify::app
            {out / "reed-map.csv", "thickness_m", "frequency_eq321_Hz", "thesis eq. 3.21", "linespoints", 1e3, 1}}}});
       nlohmann::json summary = {{"command", "map-stiffness"},
                                 {"rectify_version", RECTIFY_VERSION},
+                                {"build", build_info()},
                                 {"case", o.case_path},
                                 {"thickness_m", r.map.column("thickness_m")},
                                 {"k_N_per_m", r.map.column("stiffness_N_per_m")},

@@ -8,6 +8,7 @@
 #include "app/commands.h"
 #include "common/checkpoint.h"
 #include "common/io.h"
+#include "common/version.h"
 #include "common/plot.h"
 #include "common/progress.h"
 #include "maps/resistance_map.h"
@@ -95,6 +96,7 @@ namespace rectify::app
       nlohmann::json summary = result_json(r);
       summary["command"]         = "stokes";
       summary["rectify_version"] = RECTIFY_VERSION;
+      summary["build"] = build_info();
       summary["case"]            = o.case_path;
       summary["opening_m"]       = opening;
       summary["flow_rate_m3_per_s"] = Q;
@@ -206,6 +208,7 @@ namespace rectify::app
                      {out / "thesis-fit.csv", "opening_m", "R_Pa_s_per_m3", "thesis fit (Fig. 3.7)", "lines", 1e6, 1}}}});
       write_json(out / "summary.json", {{"command", "map-resistance"},
                                         {"rectify_version", RECTIFY_VERSION},
+                                        {"build", build_info()},
                                         {"case", o.case_path},
                                         {"opening_m", points.column("opening_m")},
                                         {"R_Pa_s_per_m3", points.column("R_Pa_s_per_m3")},

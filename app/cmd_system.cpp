@@ -5,6 +5,7 @@
 
 #include "app/commands.h"
 #include "common/io.h"
+#include "common/version.h"
 #include "common/plot.h"
 #include "common/progress.h"
 #include "system/simulation.h"
@@ -183,6 +184,7 @@ namespace rectify::app
       nlohmann::json summary = {
         {"command", "simulate"},
         {"rectify_version", RECTIFY_VERSION},
+        {"build", build_info()},
         {"case", o.case_path},
         {"scenario", o.scenario},
         {"valves", system::to_string(valves)},
@@ -355,6 +357,7 @@ namespace rectify::app
       nlohmann::json summary = {
         {"command", "sweep"},
         {"rectify_version", RECTIFY_VERSION},
+        {"build", build_info()},
         {"case", o.case_path},
         {"scenario", o.scenario},
         {"series", names},

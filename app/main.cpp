@@ -13,13 +13,15 @@
 
 #include "app/commands.h"
 #include "common/case_file.h"
+#include "common/version.h"
 
 int main(int argc, char **argv)
 {
   CLI::App app{"rectify " RECTIFY_VERSION
                ": reed valves of smart-material pumps, from flow and structure to the whole actuator"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", std::string(RECTIFY_VERSION));
+  app.set_version_flag("--version", rectify::version_text(),
+                       "Print the version, the source revision and the libraries' versions, then exit");
   rectify::app::register_check_command(app);
   rectify::app::register_system_commands(app);
   rectify::app::register_map_commands(app);

@@ -1,5 +1,7 @@
 #include "common/case_file.h"
 
+#include <cstdlib>
+
 #include <charconv>
 #include <cmath>
 #include <fstream>
@@ -253,8 +255,25 @@ namespace rectify
       }
   }
 
+  std::vector<std::filesystem::path> reference_case_search_path()
+  {
+    std::vector<std::filesystem::path> places;
+    if (const char *data = std::getenv("RECTIFY_DATA_DIR"); data != nullptr && *data != '\0')
+      places.push_back(std::filesystem::path(data) / "cases" / "reference.toml");
+    std::error_code ec;
+    const auto      exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+    if (!ec) // installed: PREFIX/bin/rectify and PREFIX/share/rectify/cases/reference.toml
+      places.push_back(exe.parent_path().parent_path() / "share" / "rectify" / "cases" / "reference.toml");
+    places.push_back(std::filesystem::path(RECTIFY_SOURCE_DIR) / "cases" / "reference.toml"); // a build-tree run
+    return places;
+  }
+
   std::filesystem::path reference_case_path()
   {
-    return std::filesystem::path(RECTIFY_SOURCE_DIR) / "cases" / "reference.toml";
+    const auto places = reference_case_search_path();
+    for (const auto &p : places)
+      if (std::filesystem::is_regular_file(p))
+        return p;
+    return places.front(); // none exists: the first place, which the error will name
   }
 } // namespace rectify

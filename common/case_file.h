@@ -92,7 +92,12 @@ namespace rectify
     mutable std::set<std::string> known_; // "table.key"
   };
 
-  /// The reference case shipped with the sources.
+  /// Where the reference case (the default --case) is looked for, in order:
+  /// $RECTIFY_DATA_DIR/cases/, the installed PREFIX/share/rectify/cases/
+  /// beside the running binary's PREFIX/bin/, and the source tree the binary
+  /// was built from (a build-tree run).
+  std::vector<std::filesystem::path> reference_case_search_path();
+  /// The first of those that exists (else the first, for the error message).
   std::filesystem::path reference_case_path();
 
   /// Formats a double the way messages and summaries print it (shortest round trip).

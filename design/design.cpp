@@ -243,6 +243,7 @@ namespace rectify::design
       {"source", "rectify design: Stokes flow (deal.II, P2-P1) on meshes of the FE reed shape; 3D elasticity"},
       {"rectify_version", RECTIFY_VERSION},
       {"code_revision", source_revision()},
+      {"build", build_info()},
       {"created", utc_now()},
       {"case", file.name()},
       {"depends_on", deps},

@@ -5,6 +5,7 @@
 
 #include "common/case_file.h"
 #include "common/io.h"
+#include "common/version.h"
 
 namespace rectify::maps
 {
@@ -232,6 +233,7 @@ namespace rectify::maps
     nlohmann::json manifest = {
       {"source", "R(x) map " + resistance.name() + " with a constant force area A_r (the thesis's model)"},
       {"rectify_version", RECTIFY_VERSION},
+      {"build", build_info()},
       {"resistance_metadata", resistance.metadata()}};
     AreaMap area = AreaMap::constant(pressure_area_m2, "A_r");
     return MapSet(std::move(resistance), std::move(area), pressure_area_m2, std::nullopt, std::move(manifest));
