@@ -78,7 +78,8 @@ namespace rectify::app
       ensure_directory(out);
       result.data.write(out / "data.csv");
       auto answer    = result.answer;
-      answer["case"] = o.case_path;
+      answer["case"]  = o.case_path;
+      answer["build"] = build_info();
       write_json(out / "answer.json", answer);
       std::printf("wrote %s (%zu rows) and %s\n", (out / "data.csv").c_str(), result.data.n_rows(),
                   (out / "answer.json").c_str());
@@ -177,7 +178,7 @@ namespace rectify::app
       auto summary = diagnosis::to_json(result, runs);
       summary["command"]         = "diagnose";
       summary["rectify_version"] = RECTIFY_VERSION;
-      summary["build"] = build_info();
+      summary["build"]           = build_info();
       summary["case"]            = o.case_path;
       summary["scenario"]        = o.scenario;
       summary["data"]            = o.data;
