@@ -11,14 +11,9 @@ namespace rectify::app
   CaseFile load_case(const std::filesystem::path &path, bool read_map_sets)
   {
     CaseFile file = CaseFile::load(path);
-    if (read_map_sets)
-      (void)system::SystemParameters::from_case(file);
-    else
-      {
-      // The system's tables without opening the map sets (`design` may be
-      // about to write the very map set the case names).
-      (void)system::SystemParameters::from_case(file, false);
-      }
+    // Without read_map_sets, the system's tables are read but its map sets not
+    // opened (`design` may be about to write the very map set the case names).
+    (void)system::SystemParameters::from_case(file, read_map_sets);
     (void)stokes::SweepSettings::from_case(file);
     (void)stiffness::StiffnessParameters::from_case(file);
     (void)mesher::MeshParameters::from_case(file);

@@ -22,11 +22,6 @@ namespace rectify::app
 {
   namespace
   {
-    system::ValveMaps load_resistance_map(const system::SystemParameters &p)
-    {
-      return system::load_valve_maps(p);
-    }
-
     // ------------------------------------------------------------------ synth
     struct SynthCommandOptions
     {
@@ -73,7 +68,7 @@ namespace rectify::app
                               {"noise", format_number(o.synth.noise)},
                               {"seed", std::to_string(o.synth.seed)},
                               {"out", o.out_dir}});
-      const auto result = diagnosis::synthesise(p, load_resistance_map(p), o.synth);
+      const auto result = diagnosis::synthesise(p, system::load_valve_maps(p), o.synth);
       const std::filesystem::path out(o.out_dir);
       ensure_directory(out);
       result.data.write(out / "data.csv");
@@ -170,7 +165,7 @@ namespace rectify::app
                                  {"rounds", std::to_string(o.options.rounds)},
                                  {"out", o.out_dir}});
       o.options.progress = [](const std::string &line) { std::fprintf(stderr, "  fitted %s\n", line.c_str()); };
-      const auto map    = load_resistance_map(p);
+      const auto map    = system::load_valve_maps(p);
       const auto result = diagnosis::diagnose(p, map, runs, o.options);
 
       const std::filesystem::path out(o.out_dir);

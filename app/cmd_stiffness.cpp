@@ -2,16 +2,12 @@
 // (stiffness_solver/).
 #include <cmath>
 #include <cstdio>
-#include <map>
 #include <sstream>
 
 #include "app/commands.h"
-#include "common/checkpoint.h"
 #include "common/io.h"
 #include "common/version.h"
 #include "common/plot.h"
-#include "common/progress.h"
-#include "stiffness_solver/analytic.h"
 #include "stiffness_solver/elasticity.h"
 #include "stiffness_solver/reed_analysis.h"
 #include "stiffness_solver/reed_sweep.h"

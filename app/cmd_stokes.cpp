@@ -2,15 +2,12 @@
 // stokes_solver/. Run with `mpirun -np N rectify stokes ...` for N processes.
 #include <cmath>
 #include <cstdio>
-#include <map>
 #include <memory>
 
 #include "app/commands.h"
-#include "common/checkpoint.h"
 #include "common/io.h"
 #include "common/version.h"
 #include "common/plot.h"
-#include "common/progress.h"
 #include "maps/resistance_map.h"
 #include "mesher/mesher.h"
 #include "stokes_solver/stokes.h"
@@ -91,8 +88,7 @@ namespace rectify::app
       const auto r = stokes::solve_stokes(valve.mesh, fp, o.no_vtu ? std::filesystem::path{} : out, true);
       if (!root)
         return;
-      const double rho = fp.fluid.density_kg_per_m3, mu = fp.fluid.viscosity_Pa_s, Q = fp.settings.flow_rate_m3_per_s;
-      const auto  &g   = mp.geometry;
+      const double mu = fp.fluid.viscosity_Pa_s, Q = fp.settings.flow_rate_m3_per_s;
       nlohmann::json summary = result_json(r);
       summary["command"]         = "stokes";
       summary["rectify_version"] = RECTIFY_VERSION;
@@ -100,10 +96,9 @@ namespace rectify::app
       summary["case"]            = o.case_path;
       summary["opening_m"]       = opening;
       summary["flow_rate_m3_per_s"] = Q;
-      // Reynolds numbers: in the port (diameter D) and in the gap's exit
-      // (2 h U / nu with U = Q / (perimeter h): independent of h).
-      summary["reynolds"] = 4 * rho * Q / (M_PI * g.port_diameter_m * mu);
-      summary["reynolds_gap_exit"] = 2 * rho * Q / ((2 * g.reed_length_m + g.reed_width_m) * mu);
+      const auto re                  = stokes::reynolds_numbers(mp.geometry, fp.fluid, Q);
+      summary["reynolds"]          = re.port;
+      summary["reynolds_gap_exit"] = re.gap_exit;
       summary["mesh"] = mesher::to_json(valve.info);
       summary["equations"] = o.navier_stokes ? "navier-stokes" : "stokes";
       summary["R_thin_gap_Pa_s_per_m3"] = stokes::thin_gap_R(mp, valve.info.closed_to_m, opening, mu);

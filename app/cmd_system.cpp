@@ -86,11 +86,6 @@ namespace rectify::app
       }
     };
 
-    system::ValveMaps load_map(const system::SystemParameters &p)
-    {
-      return system::load_valve_maps(p);
-    }
-
     /// Where each valve's R(x) and force area come from, for the echo.
     std::string valve_maps_text(const system::SystemParameters &p)
     {
@@ -147,7 +142,7 @@ namespace rectify::app
                         {"out", o.out_dir}});
       if (o.cycles == 0)
         throw InputError("--cycles 0: must be >= 1");
-      system::Model model(p, load_map(p), valves, scenario, make_drive(p, o.frequency_Hz));
+      system::Model model(p, system::load_valve_maps(p), valves, scenario, make_drive(p, o.frequency_Hz));
       auto          run = o.run_options(p);
       run.n_cycles      = o.cycles;
       run.record        = true;

@@ -23,48 +23,6 @@ namespace rectify::design
     using Clock = std::chrono::steady_clock;
     double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
-    nlohmann::json mesh_settings(const mesher::MeshSettings &s)
-    {
-      return {{"size_reed_m", s.size_reed_m},
-              {"size_far_m", s.size_far_m},
-              {"size_growth", s.size_growth},
-              {"station_spacing_m", s.station_spacing_m},
-              {"port_segments", s.port_segments},
-              {"gap_layers", s.gap_layers},
-              {"reed_layers", s.reed_layers},
-              {"above_layers", s.above_layers},
-              {"slab_margin_m", s.slab_margin_m},
-              {"blend_distance_m", s.blend_distance_m},
-              {"port_layer_m", s.port_layer_m},
-              {"gap_cutoff_ratio", s.gap_cutoff_ratio},
-              {"min_angle_deg", s.min_angle_deg},
-              {"tetgen_radius_edge_ratio", s.tetgen_radius_edge_ratio},
-              {"tetgen_min_dihedral_deg", s.tetgen_min_dihedral_deg},
-              {"tetgen_max_volume_m3", s.tetgen_max_volume_m3}};
-    }
-
-    nlohmann::json flow_settings(const stokes::FlowSettings &s)
-    {
-      return {{"flow_rate_m3_per_s", s.flow_rate_m3_per_s},
-              {"outlet_pressure_Pa", s.outlet_pressure_Pa},
-              {"solver", s.solver},
-              {"direct_max_dofs", s.direct_max_dofs},
-              {"schur", s.schur},
-              {"tolerance", s.tolerance},
-              {"max_iterations", s.max_iterations}};
-    }
-
-    nlohmann::json stiffness_settings(const stiffness::StiffnessSettings &s)
-    {
-      return {{"load", stiffness::to_string(s.load)},
-              {"fe_degree", s.fe_degree},
-              {"cells_along_length", s.cells_along_length},
-              {"cells_across_width", s.cells_across_width},
-              {"cells_through_thickness", s.cells_through_thickness},
-              {"n_modes", s.n_modes},
-              {"added_mass_factor", s.added_mass_factor}};
-    }
-
     /// OpenBLAS's thread count, set to one while it lives (if the BLAS is
     /// OpenBLAS). The reed's solve sums in another order with more BLAS
     /// threads (mpirun binds each process to one core, a plain run uses
@@ -120,9 +78,11 @@ namespace rectify::design
     const auto mp = mesher::MeshParameters::from_case(file);
     const auto fp = stokes::FlowParameters::from_case(file);
     nlohmann::json tables = maps::physical_tables(sp.geometry, fp.fluid, sp.material);
-    tables["mesh"]      = mesh_settings(mp.settings);
-    tables["flow"]      = flow_settings(fp.settings);
-    tables["stiffness"] = stiffness_settings(sp.settings);
+    tables["mesh"] = mp.settings.to_json();
+    tables["mesh"].erase("shape"); // the design meshes the FE shape, whatever the case's
+    tables["mesh"].erase("shape_table");
+    tables["flow"]      = fp.settings.to_json();
+    tables["stiffness"] = sp.settings.to_json();
     return maps::hashed_tables(tables);
   }
 
@@ -279,13 +239,13 @@ namespace rectify::design
     for (const auto &p : pts)
       table.add_row(p.row());
     table.write(out / "points.csv");
-    CsvTable curve({"opening_m", "R_Pa_s_per_m3", "A_eff_m2", "R_thesis_Pa_s_per_m3", "port_area_m2", "A_r_m2"});
+    CsvTable curve({"opening_m", "R_Pa_s_per_m3", "A_eff_m2", "R_thesis_Pa_s_per_m3", "port_area_m2"});
     const auto thesis = maps::thesis_resistance_map(25);
     for (int k = 0; k <= 240; ++k)
       {
         const double xi  = ss.from_m * std::pow(ss.to_m / ss.from_m, k / 240.0);
-        const double row[6] = {xi, set.resistance().evaluate(xi).resistance, set.area().evaluate(xi).area,
-                               thesis.evaluate(xi).resistance, seated, 0.0123 * 0.0254 * 0.0254};
+        const double row[5] = {xi, set.resistance().evaluate(xi).resistance, set.area().evaluate(xi).area,
+                               thesis.evaluate(xi).resistance, seated};
         curve.add_row(row);
       }
     curve.write(out / "map-curve.csv");
@@ -299,8 +259,8 @@ namespace rectify::design
                  {"Effective force area A_eff = F_z / dp of the open reed", "tip opening [um]", "area [mm^2]", true, false,
                   {{out / "points.csv", "opening_m", "A_eff_m2", "Stokes, solved", "points", 1e6, 1e6},
                    {out / "map-curve.csv", "opening_m", "A_eff_m2", "map", "lines", 1e6, 1e6},
-                   {out / "map-curve.csv", "opening_m", "port_area_m2", "port area (seated reed)", "lines", 1e6, 1e6},
-                   {out / "map-curve.csv", "opening_m", "A_r_m2", "thesis A_r", "lines", 1e6, 1e6}}}});
+                   {out / "map-curve.csv", "opening_m", "port_area_m2", "port area (seated reed; ~ the thesis's A_r)",
+                    "lines", 1e6, 1e6}}}});
 
     // The report.
     std::ostringstream md;

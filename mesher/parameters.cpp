@@ -98,4 +98,26 @@ namespace rectify::mesher
                        " 2e-6, 100um, 1.21mm");
     return value * scale;
   }
+
+  nlohmann::json MeshSettings::to_json() const
+  {
+    return {{"shape", shape},
+            {"shape_table", shape_table.string()},
+            {"size_reed_m", size_reed_m},
+            {"size_far_m", size_far_m},
+            {"size_growth", size_growth},
+            {"station_spacing_m", station_spacing_m},
+            {"port_segments", port_segments},
+            {"gap_layers", gap_layers},
+            {"reed_layers", reed_layers},
+            {"above_layers", above_layers},
+            {"slab_margin_m", slab_margin_m},
+            {"blend_distance_m", blend_distance_m},
+            {"port_layer_m", port_layer_m},
+            {"gap_cutoff_ratio", gap_cutoff_ratio},
+            {"min_angle_deg", min_angle_deg},
+            {"tetgen_radius_edge_ratio", tetgen_radius_edge_ratio},
+            {"tetgen_min_dihedral_deg", tetgen_min_dihedral_deg},
+            {"tetgen_max_volume_m3", tetgen_max_volume_m3}};
+  }
 } // namespace rectify::mesher

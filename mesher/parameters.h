@@ -2,6 +2,8 @@
 // (common/valve_geometry.h).
 #pragma once
 
+#include <nlohmann/json.hpp>
+
 #include <filesystem>
 #include <string>
 
@@ -33,6 +35,8 @@ namespace rectify::mesher
     double tetgen_min_dihedral_deg  = 12.0; ///< TetGen -q: dihedral angle bound
     double tetgen_max_volume_m3     = 0.0;  ///< TetGen -a (0: none)
 
+    /// Every setting, as `rectify check` and the map sets record them.
+    nlohmann::json to_json() const;
     static MeshSettings from_case(const CaseFile &file);
   };
 

@@ -54,4 +54,15 @@ namespace rectify::stiffness
     return {ValveGeometry::from_case(f), ReedMaterial::from_case(f),
             StiffnessSettings::from_case(f), FluidParameters::from_case(f)};
   }
+
+  nlohmann::json StiffnessSettings::to_json() const
+  {
+    return {{"load", to_string(load)},
+            {"fe_degree", fe_degree},
+            {"cells_along_length", cells_along_length},
+            {"cells_across_width", cells_across_width},
+            {"cells_through_thickness", cells_through_thickness},
+            {"n_modes", n_modes},
+            {"added_mass_factor", added_mass_factor}};
+  }
 } // namespace rectify::stiffness

@@ -3,6 +3,8 @@
 // (common/valve_geometry.h), the oil's density [fluid].
 #pragma once
 
+#include <nlohmann/json.hpp>
+
 #include <string>
 #include <vector>
 
@@ -39,6 +41,8 @@ namespace rectify::stiffness
     double              added_mass_factor       = 2.75; ///< eq. 3.21
     /// Small-deflection criterion: tip deflection / reed length at most this.
     double              max_linear_deflection_ratio = 0.1;
+    /// Every setting, as `rectify check` and the map sets record them.
+    nlohmann::json to_json() const;
     static StiffnessSettings from_case(const CaseFile &file);
   };
 

@@ -20,4 +20,15 @@ namespace rectify::stokes
   {
     return {FluidParameters::from_case(file), FlowSettings::from_case(file)};
   }
+
+  nlohmann::json FlowSettings::to_json() const
+  {
+    return {{"flow_rate_m3_per_s", flow_rate_m3_per_s},
+            {"outlet_pressure_Pa", outlet_pressure_Pa},
+            {"solver", solver},
+            {"direct_max_dofs", direct_max_dofs},
+            {"schur", schur},
+            {"tolerance", tolerance},
+            {"max_iterations", max_iterations}};
+  }
 } // namespace rectify::stokes

@@ -2,6 +2,8 @@
 // The oil's density and viscosity are [fluid].
 #pragma once
 
+#include <nlohmann/json.hpp>
+
 #include <string>
 
 #include "common/case_file.h"
@@ -23,6 +25,8 @@ namespace rectify::stokes
     bool        navier_stokes         = false;
     double      newton_tolerance      = 1e-10; ///< relative change of R between Newton steps
     long        newton_max_iterations = 20;
+    /// Every setting, as `rectify check` and the map sets record them.
+    nlohmann::json to_json() const;
     static FlowSettings from_case(const CaseFile &file);
   };
 

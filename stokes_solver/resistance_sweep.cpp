@@ -73,6 +73,12 @@ namespace rectify::stokes
     return p;
   }
 
+  ReynoldsNumbers reynolds_numbers(const ValveGeometry &g, const FluidParameters &fluid, double Q)
+  {
+    const double rho = fluid.density_kg_per_m3, mu = fluid.viscosity_Pa_s;
+    return {4 * rho * Q / (M_PI * g.port_diameter_m * mu), 2 * rho * Q / ((2 * g.reed_length_m + g.reed_width_m) * mu)};
+  }
+
   double thin_gap_R(const mesher::MeshParameters &mp, double closed_to_m, double opening, double mu)
   {
     const mesher::SampledShape shape = mp.sampled_shape();
@@ -95,8 +101,6 @@ namespace rectify::stokes
   OpeningPoint solve_opening(const mesher::MeshParameters &mp, const FlowParameters &fp, double x,
                              const MpiSession &mpi)
   {
-    const double rho = fp.fluid.density_kg_per_m3, mu = fp.fluid.viscosity_Pa_s, Q = fp.settings.flow_rate_m3_per_s;
-    const auto  &g   = mp.geometry;
     const auto          valve = mesher::mesh_valve(mp, x, false);
     const StokesResult  r     = solve_stokes(valve.mesh, fp);
     OpeningPoint        p;
@@ -106,11 +110,10 @@ namespace rectify::stokes
     p.reed_force_N              = r.reed_force_N[2];
     p.A_eff_m2                  = r.A_eff_m2;
     p.pressure_drop_Pa          = r.inlet_pressure_Pa - r.outlet_pressure_Pa;
-    p.R_thin_gap_Pa_s_per_m3    = thin_gap_R(mp, valve.info.closed_to_m, x, mu);
-    // Reynolds numbers: in the port (diameter D) and at the gap's exit
-    // (2 h U / nu with U = Q / (perimeter h): independent of h).
-    p.reynolds_port          = 4 * rho * Q / (M_PI * g.port_diameter_m * mu);
-    p.reynolds_gap_exit      = 2 * rho * Q / ((2 * g.reed_length_m + g.reed_width_m) * mu);
+    p.R_thin_gap_Pa_s_per_m3    = thin_gap_R(mp, valve.info.closed_to_m, x, fp.fluid.viscosity_Pa_s);
+    const auto re               = reynolds_numbers(mp.geometry, fp.fluid, fp.settings.flow_rate_m3_per_s);
+    p.reynolds_port             = re.port;
+    p.reynolds_gap_exit         = re.gap_exit;
     p.mass_balance_rel_error = r.mass_balance_rel_error;
     p.n_dofs                 = static_cast<double>(r.n_dofs);
     p.iterations             = r.iterations;
@@ -155,7 +158,6 @@ namespace rectify::stokes
         for (std::size_t i = 0; i + columns.size() <= flat.size(); i += columns.size())
           done_[flat[i]] = OpeningPoint::from_row({flat.begin() + static_cast<long>(i),
                                                    flat.begin() + static_cast<long>(i + columns.size())});
-        n_resumed_ = done_.size();
         progress_  = std::make_unique<Progress>(label, n_planned, 0, !root_);
       }
 
@@ -184,7 +186,12 @@ namespace rectify::stokes
       }
 
       void        extend(std::size_t more) { progress_->extend(more); }
-      std::size_t n_resumed() const { return n_resumed_; }
+      /// A planned opening that will not be solved (counted, so the estimate stays right).
+      void        drop_planned()
+      {
+        if (root_)
+          progress_->skip();
+      }
       std::size_t n_reused() const { return n_reused_; } ///< openings taken from the checkpoint so far
 
     private:
@@ -195,7 +202,7 @@ namespace rectify::stokes
       std::unique_ptr<Checkpoint>    checkpoint_;
       std::unique_ptr<Progress>      progress_;
       std::map<double, OpeningPoint> done_;
-      std::size_t                    n_resumed_ = 0, n_reused_ = 0;
+      std::size_t                    n_reused_ = 0;
     };
   } // namespace
 
@@ -220,7 +227,6 @@ namespace rectify::stokes
     CheckpointedOpenings           solver(mp, fp, dir, "openings-partial", fingerprint, mpi, "design: openings",
                                           s.initial_openings);
     SweepResult                    result;
-    result.n_resumed = solver.n_resumed();
     std::map<double, OpeningPoint> solved; // this sweep's points
     const auto solve = [&](double x) -> const OpeningPoint & { return solved[x] = solver.get(x); };
     const auto sorted = [&]() {
@@ -255,6 +261,7 @@ namespace rectify::stokes
               {
                 // Too short to split, or out of solves: leave it unchecked but say so.
                 result.checks.push_back({a, b, std::sqrt(a * b), 0, 0, false, true});
+                solver.drop_planned();
                 result.converged = false;
                 continue;
               }

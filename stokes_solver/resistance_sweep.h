@@ -90,6 +90,15 @@ namespace rectify::stokes
   /// evaluated at x: {R, A_eff}.
   std::pair<double, double> interpolate_point(const std::vector<OpeningPoint> &points, double x);
 
+  /// Reynolds numbers of flow rate Q through the valve: in the port,
+  /// 4 rho Q / (pi D mu), and at the gap's exit, 2 h U / nu with U = Q /
+  /// (perimeter h), which does not depend on h: 2 rho Q / ((2 L + W) mu).
+  struct ReynoldsNumbers
+  {
+    double port, gap_exit;
+  };
+  ReynoldsNumbers reynolds_numbers(const ValveGeometry &geometry, const FluidParameters &fluid, double flow_rate_m3_per_s);
+
   /// Thin-gap (Reynolds equation) R for the same valve, shape as the mesher
   /// samples it, closed where the mesher closes it; grid 10 um.
   double thin_gap_R(const mesher::MeshParameters &mesh, double closed_to_m, double opening_m, double viscosity_Pa_s);

@@ -193,7 +193,6 @@ namespace rectify::system
 
     const ModelConstants       &constants() const { return c_; }
     const Drive                &drive() const { return drive_; }
-    const maps::ResistanceMap  &resistance_map() const { return maps_[0].resistance(); }
     const maps::MapSet         &valve_map(std::size_t v) const { return maps_[v]; }
     /// The opening force's area of valve v at state y and its slope dA/dx:
     /// the seated area while the reed is seated (or an ideal valve), else A_eff(x).

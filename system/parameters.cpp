@@ -68,10 +68,9 @@ namespace rectify::system
     const std::string map = f.text(t, "properties_map", "");
     const double      thickness =
       f.real(t, "properties_thickness_m", 0.127e-3, positive);
+    p.properties_mass = f.text(t, "properties_mass", p.properties_mass, {"eq321", "modal-in-fluid"});
     const std::string mass_column =
-      f.text(t, "properties_mass", "eq321", {"eq321", "modal-in-fluid"}) == "eq321" ?
-        "effective_mass_eq321_kg" :
-        "modal_mass_in_fluid_kg";
+      p.properties_mass == "eq321" ? "effective_mass_eq321_kg" : "modal_mass_in_fluid_kg";
     if (!map.empty())
       {
         if (f.has(t, "stiffness_N_per_m") || f.has(t, "effective_mass_kg"))
@@ -113,9 +112,8 @@ namespace rectify::system
         const std::string dir = one.empty() ? both : one;
         p.map_set[v]          = dir.empty() ? "" : f.resolve(dir).string();
       }
-    const bool any_map_set = !p.map_set[0].empty() || !p.map_set[1].empty();
     for (const char *key : {"resistance_map", "interpolation"})
-      if (any_map_set && p.map_set[0].size() && p.map_set[1].size() && f.has(t, key))
+      if (!p.map_set[0].empty() && !p.map_set[1].empty() && f.has(t, key))
         throw InputError(f.where(t, key) + ": both valves read their map sets, which give R(x) and its "
                          "interpolation; remove " + key);
     p.resistance_map =
@@ -249,7 +247,7 @@ namespace rectify::system
         if (!override_case && f.has("reed", key))
           throw InputError(f.where("reed", key) + ": the map set '" + reed_from +
                            "' gives the reed's stiffness and mass; remove " + key);
-      const bool eq321 = f.text("reed", "properties_mass", "eq321", {"eq321", "modal-in-fluid"}) == "eq321";
+      const bool eq321 = p.reed.properties_mass == "eq321";
       p.reed.stiffness_N_per_m = reed->stiffness_N_per_m;
       p.reed.effective_mass_kg = eq321 ? reed->effective_mass_eq321_kg : reed->modal_mass_in_fluid_kg;
       p.reed.source = "map set " + reed_from + (eq321 ? " (mass: eq. 3.21)" : " (mass: FE mode in oil)");

@@ -56,6 +56,9 @@ namespace rectify::system
     /// Where stiffness and mass came from: "case", or the reed map (written
     /// by `rectify map-stiffness`) read at a thickness.
     std::string source = "case";
+    /// Which mass a reed map or a map set gives: "eq321" (the thesis's 2.75
+    /// (m_plate + m_added)) or "modal-in-fluid" (the FE first mode in oil).
+    std::string properties_mass = "eq321";
     /// Reads [reed]. With `properties_map` set, k_r and m_r are interpolated
     /// (linearly in thickness) from that map at `properties_thickness_m`,
     /// the mass column chosen by `properties_mass`; giving them in the case
