@@ -135,7 +135,11 @@ namespace rectify::app
             std::fprintf(stderr, "notice: '%s': column '%s' ignored (not a quantity the model predicts)\n",
                          path.c_str(), c.c_str());
           runs.push_back(diagnosis::make_run_case(std::move(run), scenario, o.frequency_Hz,
-                                                  o.options.training_fraction));
+                                                  o.options.training_fraction, o.options.repair_outliers,
+                                                  o.options.harmonics));
+          for (const auto &x : runs.back().outliers)
+            std::fprintf(stderr, "notice: '%s': row %zu, %s: an isolated spike of %.3g (%.0f noise sd) replaced "
+                         "by its neighbours' mean\n", path.c_str(), x.row, x.column.c_str(), x.size, x.noise_units);
           const auto &rc = runs.back();
           if (scenario == system::Scenario::no_flow && rc.run.has("actuator_position_m"))
             {
@@ -160,7 +164,15 @@ namespace rectify::app
                                       s += (s.empty() ? "" : ", ") + e;
                                     return s;
                                   }()},
-                                 {"nuisance", "force gain in 1 +- " + format_number(o.options.gain_range)},
+                                 {"nuisance", "force gain in 1 +- " + format_number(o.options.gain_range) +
+                                                (p.uncertain.empty() ? std::string() : [&] {
+                                                  std::string s = "; [uncertain]:";
+                                                  for (const auto &q : p.uncertain)
+                                                    s += " " + q.name() + " in [" + format_number(q.lower) + ", " +
+                                                         format_number(q.upper) + "]";
+                                                  return s;
+                                                }())},
+                                 {"start", o.options.start},
                                  {"training", format_number(o.options.training_fraction) + " of each run; the rest held out"},
                                  {"rounds", std::to_string(o.options.rounds)},
                                  {"out", o.out_dir}});
@@ -192,6 +204,9 @@ namespace rectify::app
             for (const auto &k : e->fixed_keys())
               entries.push_back({k.table, k.key, k.value, "rectify diagnose: " + rr.effect});
           }
+      for (const auto &q : result.final_parameters.uncertain)
+        entries.push_back({q.table, q.key, format_number(result.final_parameters.real_value(q.table, q.key)),
+                           "rectify diagnose: uncertain baseline parameter, fitted"});
       entries.push_back({"transducer", "piezomagnetic_coefficient_m_per_A",
                          format_number(result.final_parameters.transducer.piezomagnetic_coefficient_m_per_A),
                          "rectify diagnose: nuisance force gain fitted"});
@@ -218,10 +233,10 @@ namespace rectify::app
           double         check_sq = 0;
           for (std::size_t r = 0; r < runs.size(); ++r)
             {
-              diagnosis::SimulationOptions so;
-              so.relative_tolerance = o.options.relative_tolerance;
-              const auto model = diagnosis::simulate_run(new_p, map, runs[r].run, runs[r].setup, so);
-              const auto norms = diagnosis::residual_norms(runs[r].run, model, result.runs[r].scales);
+              const auto so    = result.runs[r].simulation(o.options.relative_tolerance);
+              const auto model = diagnosis::simulate_run(new_p, map, result.runs[r].run, runs[r].setup, so);
+              const auto norms = diagnosis::residual_norms(result.runs[r].run, model, result.runs[r].scales,
+                                                           result.runs[r].n_skip);
               check_sq += norms.at("overall") * norms.at("overall");
             }
           check = std::sqrt(check_sq / static_cast<double>(runs.size()));
@@ -312,7 +327,34 @@ namespace rectify::app
       // report.md
       {
         std::string md = "# rectify diagnose\n\nCase: `" + o.case_path + "`, scenario " + o.scenario + ".\n\n";
-        md += "## Where the model disagrees with the data (before)\n\n";
+        md += "**Verdict: " + result.verdict + ".** " + result.verdict_sentence + ".\n\n";
+        md += "## The records\n\n| run | start | residual of each start (first 2 cycles, swing units) | "
+              "settling samples left out | outliers replaced |\n|---|---|---|---|---|\n";
+        for (const auto &rc : result.runs)
+          {
+            std::string scores, spikes;
+            for (const auto &[name, v] : rc.start_scores.items())
+              scores += (scores.empty() ? "" : ", ") + name + " " + sci(v.get<double>());
+            for (const auto &x : rc.outliers)
+              spikes += (spikes.empty() ? "" : "; ") + x.column + " row " + std::to_string(x.row) + " (" +
+                        sci(x.noise_units) + " sd)";
+            md += "| `" + rc.run.source + "` | " + diagnosis::to_string(rc.start) + " | " +
+                  (scores.empty() ? "-" : scores) + " | " + std::to_string(rc.n_skip) + " | " +
+                  (spikes.empty() ? "none" : spikes) + " |\n";
+          }
+        if (!result.rounds.front().baseline_check.empty())
+          {
+            md += "\n## The baseline, calibrated before naming anything\n\nFitted with `none` (every [uncertain] "
+                  "parameter and the force gain); a parameter the data do not determine (standard error above " +
+                  sci(o.options.identifiability_sd) + " of its range) is held at this fit for every candidate.\n\n"
+                  "| parameter | case | fitted | bounds | standard error / range | identifiable | note |\n"
+                  "|---|---|---|---|---|---|---|\n";
+            for (const auto &b : result.rounds.front().baseline_check)
+              md += "| " + b.name + " | " + sci(b.nominal) + " | " + sci(b.value) + " | " + sci(b.lower) + " .. " +
+                    sci(b.upper) + " | " + sci(b.sd_unit) + " | " + (b.identifiable ? "yes" : "no: held") + " | " +
+                    b.note + " |\n";
+          }
+        md += "\n## Where the model disagrees with the data (before)\n\n";
         for (std::size_t r = 0; r < runs.size(); ++r)
           {
             md += "Run `" + runs[r].run.source + "` (" + sci(runs[r].setup.frequency_Hz) + " Hz):\n\n";
@@ -379,6 +421,10 @@ namespace rectify::app
       for (std::size_t k = 1; k < result.rounds.size(); ++k)
         std::printf(", then %s", result.rounds[k].effect.c_str());
       std::printf("\n%s\n", result.rounds.front().decision.c_str());
+      std::printf("verdict: %s. %s\n", result.verdict.c_str(), result.verdict_sentence.c_str());
+      for (const auto &rc : result.runs)
+        std::printf("  %s: start %s, %zu outlier(s) replaced\n", rc.run.source.c_str(),
+                    diagnosis::to_string(rc.start).c_str(), rc.outliers.size());
       for (const auto &rc : result.localisation)
         for (const auto &s : rc.sentences)
           std::printf("  before: %s\n", s.c_str());
@@ -410,6 +456,35 @@ namespace rectify::app
         ->capture_default_str();
       cmd->add_option("--threads", o->options.threads, "candidates fitted at once (0: all cores)");
       cmd->add_option("--rtol", o->options.relative_tolerance, "CVODE relative tolerance")->capture_default_str();
+      cmd->add_option("--start", o->options.start,
+                      "where each record starts: auto (the best over its first two cycles), rest, steady "
+                      "(static state under its first drive value) or periodic (a run-in of its first cycle)")
+        ->check(CLI::IsMember({"auto", "rest", "steady", "periodic"}))
+        ->capture_default_str();
+      cmd->add_option("--lead-cycles", o->options.lead_cycles, "cycles of run-in before a periodic start")
+        ->check(CLI::Range(1.0, 1000.0))
+        ->capture_default_str();
+      cmd->add_option("--settling-cycles", o->options.settling_cycles,
+                      "cycles at each record's start left out of the residual (default: 0 from rest, else 1)")
+        ->check(CLI::Range(0.0, 100.0));
+      cmd->add_option("--harmonics", o->options.harmonics,
+                      "compare data and model within this many harmonics of the pumping frequency (0: every "
+                      "sample as measured)")
+        ->check(CLI::Range(0.0, 1000.0))
+        ->capture_default_str();
+      cmd->add_flag("!--keep-outliers", o->options.repair_outliers,
+                    "do not look for isolated spikes in the records (default: found, reported, replaced)");
+      cmd->add_option("--gain-range", o->options.gain_range, "nuisance force gain fitted in 1 +- this")
+        ->check(CLI::Range(0.0, 0.5))
+        ->capture_default_str();
+      cmd->add_option("--identifiability-sd", o->options.identifiability_sd,
+                      "a baseline parameter whose standard error exceeds this share of its range is held")
+        ->check(CLI::Range(0.001, 1.0))
+        ->capture_default_str();
+      cmd->add_option("--beyond-library", o->options.beyond_library_noise_units,
+                      "residual [noise units] above which the verdict says: model error beyond the library")
+        ->check(CLI::Range(1.0, 1000.0))
+        ->capture_default_str();
       cmd->callback([o] { diagnose(*o); });
     }
 

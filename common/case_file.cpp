@@ -1,3 +1,4 @@
+#include <algorithm>
 #include "common/case_file.h"
 
 #include <cstdlib>
@@ -122,6 +123,20 @@ namespace rectify
   bool CaseFile::has(const std::string &table, const std::string &key) const
   {
     return find(impl_->root, table, key) != nullptr;
+  }
+
+  std::vector<std::string> CaseFile::keys(const std::string &table) const
+  {
+    std::vector<std::pair<std::size_t, std::string>> found;
+    const auto &top = impl_->root.as_table();
+    if (const auto t = top.find(table); t != top.end() && t->second.is_table())
+      for (const auto &[key, value] : t->second.as_table())
+        found.emplace_back(value.location().line(), key);
+    std::sort(found.begin(), found.end());
+    std::vector<std::string> out;
+    for (auto &[line, key] : found)
+      out.push_back(std::move(key));
+    return out;
   }
 
   void CaseFile::declare(const std::string &table, const std::string &key) const

@@ -57,6 +57,8 @@ namespace rectify
     std::filesystem::path resolve(const std::string &path_in_file) const;
 
     bool has(const std::string &table, const std::string &key) const;
+    /// The keys of [table] in file order (empty if there is no such table).
+    std::vector<std::string> keys(const std::string &table) const;
 
     /// A real parameter: the value in the file, else `default_value`; both are
     /// checked against `bounds`.

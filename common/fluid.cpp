@@ -29,6 +29,8 @@ namespace rectify
   {
     if (free_air_fraction == 0.0)
       return 0.0;
+    if (free_air_law == "constant-modulus")
+      return free_air_fraction / (gas_heat_capacity_ratio * bias_pressure_Pa);
     const double p = absolute_floor(bias_pressure_Pa, p_gauge);
     return free_air_fraction * std::pow(bias_pressure_Pa / p, 1.0 / gas_heat_capacity_ratio) /
            (gas_heat_capacity_ratio * p);
@@ -38,6 +40,8 @@ namespace rectify
   {
     if (free_air_fraction == 0.0)
       return 0.0;
+    if (free_air_law == "constant-modulus")
+      return free_air_fraction * p_gauge / (gas_heat_capacity_ratio * bias_pressure_Pa);
     const double p = absolute_floor(bias_pressure_Pa, p_gauge);
     return free_air_fraction * (1.0 - std::pow(bias_pressure_Pa / p, 1.0 / gas_heat_capacity_ratio));
   }
@@ -56,6 +60,7 @@ namespace rectify
     p.bias_pressure_Pa = f.real(t, "bias_pressure_Pa", p.bias_pressure_Pa, positive);
     p.free_air_fraction =
       f.real(t, "free_air_fraction", p.free_air_fraction, Bounds{0.0, 0.5, true, true});
+    p.free_air_law = f.text(t, "free_air_law", p.free_air_law, {"polytropic", "constant-modulus"});
     return p;
   }
 

@@ -3,6 +3,8 @@
 // modulus and entrained air (eqs. 3.22-3.26) for the lumped model.
 #pragma once
 
+#include <string>
+
 #include "common/case_file.h"
 
 namespace rectify
@@ -21,15 +23,21 @@ namespace rectify
     /// effect `entrained_air`). 0: none. Unlike entrained_air_fraction, which
     /// eq. 3.26 folds into one constant bulk modulus at the bias pressure.
     double free_air_fraction       = 0.0;
+    /// How free air's volume follows pressure: "polytropic" (the gas law,
+    /// V ~ p^(-1/gamma): soft at low pressure) or "constant-modulus" (a
+    /// fixed bulk modulus gamma p_bias: the form of eq. 3.26 at the bias).
+    std::string free_air_law       = "polytropic";
 
     /// eq. 3.26 with beta_gas = gamma p_bias (eq. 3.25).
     double effective_bulk_modulus_Pa() const;
     /// Compliance per unit oil volume of the free air at gauge pressure
     /// `p_gauge` about the bias [1/Pa]: d(V_gas/V)/dp = alpha (p_b/p)^(1/gamma) / (gamma p),
-    /// p absolute, floored at 1 % of the bias pressure (cavitation is not modelled).
+    /// p absolute, floored at 1 % of the bias pressure (cavitation is not
+    /// modelled); alpha / (gamma p_b) for the constant-modulus law.
     double free_air_compliance_per_volume(double p_gauge) const;
     /// Gas volume per oil volume lost from the bias state to `p_gauge`:
-    /// alpha (1 - (p_b/p)^(1/gamma)) (the integral of the compliance above).
+    /// alpha (1 - (p_b/p)^(1/gamma)) (the integral of the compliance above;
+    /// alpha (p - p_b) / (gamma p_b) for the constant-modulus law).
     double free_air_volume_change_per_volume(double p_gauge) const;
     static FluidParameters from_case(const CaseFile &file);
   };

@@ -9,6 +9,8 @@
 #include <mutex>
 #include <thread>
 
+#include <Eigen/Dense>
+
 #include "common/case_file.h"
 
 namespace rectify::diagnosis
@@ -58,7 +60,18 @@ namespace rectify::diagnosis
         std::rethrow_exception(error);
     }
 
-    /// Parameters at a point u in [0, 1]^(k): the effect's parameters, then the gain.
+    /// An [uncertain] parameter <-> its position in [0, 1] (log over its bounds).
+    double uncertain_from_unit(const system::UncertainParameter &q, double u)
+    {
+      return q.lower * std::pow(q.upper / q.lower, std::clamp(u, 0.0, 1.0));
+    }
+    double uncertain_to_unit(const system::UncertainParameter &q, double v)
+    {
+      return std::clamp(std::log(v / q.lower) / std::log(q.upper / q.lower), 0.0, 1.0);
+    }
+
+    /// Parameters at a point u in [0, 1]^k: the effect's parameters, then
+    /// the free baseline ([uncertain]) parameters, then the force gain.
     struct Evaluator
     {
       const system::SystemParameters &base;
@@ -71,6 +84,28 @@ namespace rectify::diagnosis
       const std::vector<Signals>     *reference = nullptr;
       /// > 0: fit only this many pumping cycles from the start of each run.
       double                          horizon_cycles = 0;
+      /// Indices into base.uncertain fitted here; the others sit at `held`.
+      std::vector<std::size_t>        free;
+      std::vector<double>             held;  ///< per base.uncertain: its position when not free
+      std::vector<double>             nuisance_start; ///< free ones' positions, then the gain's (0.5: 1)
+
+      /// An evaluator with every [uncertain] parameter free, starting at the case's values.
+      static Evaluator make(const system::SystemParameters &base, const system::ValveMaps &map,
+                            const std::vector<RunCase> &runs, const Effect *effect,
+                            const DiagnoseOptions &options, unsigned run_threads,
+                            const std::vector<Signals> *reference = nullptr)
+      {
+        Evaluator ev{base, map, runs, effect, options, run_threads, reference};
+        for (std::size_t j = 0; j < base.uncertain.size(); ++j)
+          {
+            const auto &q = base.uncertain[j];
+            ev.held.push_back(uncertain_to_unit(q, base.real_value(q.table, q.key)));
+            ev.free.push_back(j);
+            ev.nuisance_start.push_back(ev.held.back());
+          }
+        ev.nuisance_start.push_back(0.5);
+        return ev;
+      }
 
       std::size_t samples(const RunCase &rc) const
       {
@@ -79,10 +114,32 @@ namespace rectify::diagnosis
         const auto  &t  = rc.run.time_s;
         const double dt = (t.back() - t.front()) / static_cast<double>(t.size() - 1);
         const auto   n  = static_cast<std::size_t>(horizon_cycles / (rc.setup.frequency_Hz * dt)) + 1;
-        return std::min(rc.n_train, n);
+        return std::min(rc.n_train, rc.n_skip + n);
       }
 
-      std::size_t dimension() const { return (effect ? effect->parameters().size() : 0) + 1; }
+      std::size_t n_effect() const { return effect ? effect->parameters().size() : 0; }
+      std::size_t dimension() const { return n_effect() + free.size() + 1; }
+
+      std::vector<double> start_point() const
+      {
+        std::vector<double> u(n_effect(), 0.5);
+        u.insert(u.end(), nuisance_start.begin(), nuisance_start.end());
+        return u;
+      }
+
+      /// The start point with the free baseline parameters at the case's
+      /// values and the gain at 1.
+      std::vector<double> prior_point() const
+      {
+        std::vector<double> u(n_effect(), 0.5);
+        for (std::size_t j : free)
+          {
+            const auto &q = base.uncertain[j];
+            u.push_back(uncertain_to_unit(q, base.real_value(q.table, q.key)));
+          }
+        u.push_back(0.5);
+        return u;
+      }
 
       std::vector<double> values(const std::vector<double> &u) const
       {
@@ -96,13 +153,50 @@ namespace rectify::diagnosis
       {
         return 1.0 + options.gain_range * (2.0 * u.back() - 1.0);
       }
+      /// Every [uncertain] parameter's position at u.
+      std::vector<double> uncertain_units(const std::vector<double> &u) const
+      {
+        std::vector<double> w = held;
+        for (std::size_t i = 0; i < free.size(); ++i)
+          w[free[i]] = u[n_effect() + i];
+        return w;
+      }
+      std::map<std::string, double> baseline(const std::vector<double> &u) const
+      {
+        std::map<std::string, double> out;
+        const auto                    w = uncertain_units(u);
+        for (std::size_t j = 0; j < base.uncertain.size(); ++j)
+          out[base.uncertain[j].name()] = uncertain_from_unit(base.uncertain[j], w[j]);
+        return out;
+      }
       system::SystemParameters parameters(const std::vector<double> &u) const
       {
         system::SystemParameters p = base;
+        const auto               w = uncertain_units(u);
+        for (std::size_t j = 0; j < base.uncertain.size(); ++j)
+          *p.real_field(base.uncertain[j].table, base.uncertain[j].key) =
+            uncertain_from_unit(base.uncertain[j], w[j]);
         if (effect)
           effect->apply(values(u), p);
         p.transducer.piezomagnetic_coefficient_m_per_A *= gain(u);
         return p;
+      }
+      /// The normalised residuals over the training samples, appended run by run.
+      std::vector<double> residual_vector(const std::vector<double> &u) const
+      {
+        const auto                       p = parameters(u);
+        std::vector<std::vector<double>> per_run(runs.size());
+        parallel_for(runs.size(), run_threads, [&](std::size_t i) {
+          const auto &rc = runs[i];
+          auto        so = rc.simulation(options.relative_tolerance);
+          so.n_samples   = samples(rc);
+          const auto model = simulate_run(p, map, rc.run, rc.setup, so);
+          append_residuals(rc.run, model, rc.scales, rc.n_skip, so.n_samples, per_run[i]);
+        });
+        std::vector<double> all;
+        for (const auto &r : per_run)
+          all.insert(all.end(), r.begin(), r.end());
+        return all;
       }
       /// Sum of squared normalised residuals over the training samples.
       SquaredResidual training(const std::vector<double> &u) const
@@ -110,12 +204,11 @@ namespace rectify::diagnosis
         const auto                   p = parameters(u);
         std::vector<SquaredResidual> per_run(runs.size());
         parallel_for(runs.size(), run_threads, [&](std::size_t i) {
-          const auto       &rc = runs[i];
-          SimulationOptions so;
-          so.relative_tolerance = options.relative_tolerance;
-          so.n_samples          = samples(rc);
-          const auto model      = simulate_run(p, map, rc.run, rc.setup, so);
-          per_run[i]            = squared_residual(rc.run, model, rc.scales, 0, so.n_samples);
+          const auto &rc = runs[i];
+          auto        so = rc.simulation(options.relative_tolerance);
+          so.n_samples   = samples(rc);
+          const auto model = simulate_run(p, map, rc.run, rc.setup, so);
+          per_run[i]       = squared_residual(rc.run, model, rc.scales, rc.n_skip, so.n_samples);
         });
         SquaredResidual total;
         for (const auto &r : per_run)
@@ -170,9 +263,7 @@ namespace rectify::diagnosis
     {
       std::vector<Signals> out(runs.size());
       parallel_for(runs.size(), threads, [&](std::size_t i) {
-        SimulationOptions so;
-        so.relative_tolerance = rtol;
-        out[i]                = simulate_run(p, map, runs[i].run, runs[i].setup, so);
+        out[i] = simulate_run(p, map, runs[i].run, runs[i].setup, runs[i].simulation(rtol));
       });
       return out;
     }
@@ -188,7 +279,7 @@ namespace rectify::diagnosis
           const auto &rc = runs[r];
           const auto  s  = heldout ? squared_residual(rc.run, model[r], rc.scales, rc.n_train,
                                                       rc.run.time_s.size()) :
-                                     squared_residual(rc.run, model[r], rc.scales, 0, rc.n_train);
+                                     squared_residual(rc.run, model[r], rc.scales, rc.n_skip, rc.n_train);
           total.sum += s.sum;
           total.n += s.n;
         }
@@ -260,7 +351,7 @@ namespace rectify::diagnosis
             const double v = best_value * std::pow(ratio, j);
             if (v < par.lower || v > par.upper)
               continue;
-            std::vector<double> u(dim, 0.5);
+            std::vector<double> u = ev.start_point();
             u[0] = par.to_unit(v);
             objective(dim, u.data(), nullptr, &o);
           }
@@ -270,7 +361,7 @@ namespace rectify::diagnosis
       };
       runs_of_the_model += scan(3.0, 1.02, 12);
       runs_of_the_model += scan(6.0, 1.005, 4);
-      std::vector<double> u(dim, 0.5);
+      std::vector<double> u = ev.start_point();
       u[0] = par.to_unit(best_value);
       return u;
     }
@@ -286,7 +377,7 @@ namespace rectify::diagnosis
       c.effect = ev.effect ? ev.effect->name() : "none";
       Objective o{&ev, 0, 0, 0, 1e300, {}};
       const unsigned dim = static_cast<unsigned>(ev.dimension());
-      std::vector<double> u(dim, 0.5);
+      std::vector<double> u = ev.start_point();
       struct Start
       {
         double              value; ///< the objective there
@@ -312,11 +403,18 @@ namespace rectify::diagnosis
         add_start(*from_point, ringing ? fine_step(*from_point) : 0.02);
       else if (ev.effect)
         {
-          for (int g = 0; g < grid_points; ++g)
-            {
-              u[0] = (g + 0.5) / grid_points;
-              add_start(u, 0.5 / grid_points);
-            }
+          // the grid with the baseline as the baseline fit left it, and (if
+          // different) at the case's values: a missing effect can pull the
+          // baseline fit far from where the effect's own fit lies
+          std::vector<std::vector<double>> bases{u};
+          if (const auto prior = ev.prior_point(); prior != u)
+            bases.push_back(prior);
+          for (auto b : bases)
+            for (int g = 0; g < grid_points; ++g)
+              {
+                b[0] = (g + 0.5) / grid_points;
+                add_start(b, 0.5 / grid_points);
+              }
           if (ringing)
             if (const auto r = ringing_start(ev, short_runs); !r.empty())
               add_start(r, fine_step(r));
@@ -342,14 +440,15 @@ namespace rectify::diagnosis
               std::vector<double> x = from;
               nlopt_opt opt = nlopt_create(dim >= 2 ? NLOPT_LN_BOBYQA : NLOPT_LN_COBYLA, dim);
               std::vector<double> lo(dim, 0.0), hi(dim, 1.0), step(dim, initial_step);
-              step.back() = std::min(0.1, initial_step);
+              for (std::size_t j = ev.n_effect(); j < dim; ++j) // the nuisance
+                step[j] = std::min(0.1, initial_step);
               nlopt_set_lower_bounds(opt, lo.data());
               nlopt_set_upper_bounds(opt, hi.data());
               nlopt_set_initial_step(opt, step.data());
               nlopt_set_min_objective(opt, objective, &o);
               nlopt_set_xtol_abs1(opt, ringing ? 2e-5 : 2e-4);
               nlopt_set_ftol_rel(opt, 1e-7);
-              nlopt_set_maxeval(opt, ev.options.max_evaluations);
+              nlopt_set_maxeval(opt, ev.options.max_evaluations + 10 * static_cast<int>(ev.free.size()));
               double f = 0;
               status   = nlopt_optimize(opt, x.data(), &f);
               nlopt_destroy(opt);
@@ -370,14 +469,21 @@ namespace rectify::diagnosis
       c.u           = x;
       c.values      = ev.values(x);
       c.force_gain  = ev.gain(x);
+      c.baseline    = ev.baseline(x);
       c.k           = static_cast<int>(dim);
       c.evaluations = o.evaluations + short_runs;
       c.failed      = o.failures == o.evaluations;
       c.n_train     = o.n;
       c.ssr_train   = o.best * static_cast<double>(o.n);
       const double n = static_cast<double>(std::max<std::size_t>(o.n, 1));
-      const double lnL = n * std::log(std::max(c.ssr_train, 1e-300) / n);
-      c.bic         = lnL + c.k * std::log(n);
+      // band-limited residuals are correlated: n samples carry about
+      // n x (the band's share of the Nyquist band) independent values
+      double fraction = 0;
+      for (const auto &rc : ev.runs)
+        fraction += rc.band_fraction / static_cast<double>(ev.runs.size());
+      const double n_eff = std::max(1.0, n * fraction);
+      const double lnL   = n_eff * std::log(std::max(c.ssr_train, 1e-300) / n);
+      c.bic         = lnL + c.k * std::log(n_eff);
       c.aic         = lnL + 2.0 * c.k;
       try
         {
@@ -402,7 +508,7 @@ namespace rectify::diagnosis
       std::map<std::string, int>    count;
       for (std::size_t r = 0; r < runs.size(); ++r)
         for (const auto &[name, v] :
-             residual_norms(runs[r].run, model[r], swings ? runs[r].swings : runs[r].scales))
+             residual_norms(runs[r].run, model[r], swings ? runs[r].swings : runs[r].scales, runs[r].n_skip))
           {
             sum[name] += v * v;
             ++count[name];
@@ -413,12 +519,84 @@ namespace rectify::diagnosis
     }
   } // namespace
 
+  SimulationOptions RunCase::simulation(double relative_tolerance) const
+  {
+    SimulationOptions so;
+    so.relative_tolerance = relative_tolerance;
+    so.start              = start;
+    so.lead_cycles        = lead_cycles;
+    so.band_Hz            = band_Hz;
+    return so;
+  }
+
+  double cycle_scatter(const std::vector<double> &t, const std::vector<double> &v, double f)
+  {
+    const std::size_t n = v.size();
+    if (n < 16 || !uniformly_sampled(t) || !(f > 0))
+      return 0.0;
+    const double dt     = (t.back() - t.front()) / static_cast<double>(n - 1);
+    const double per    = 1.0 / (f * dt);
+    const auto   period = static_cast<std::size_t>(std::llround(per));
+    if (period < 4 || std::abs(per - static_cast<double>(period)) > 0.01 * per)
+      return 0.0;
+    const std::size_t cycles = n / period, first = cycles / 2;
+    const std::size_t m      = cycles - first; // cycles used
+    if (m < 5)
+      return 0.0;
+    // per phase, a quadratic in the cycle index (a build-up that has not
+    // settled, a drift) fitted by least squares; the scatter about it
+    Eigen::MatrixXd A(static_cast<Eigen::Index>(m), 3);
+    for (std::size_t c = 0; c < m; ++c)
+      {
+        const double x = static_cast<double>(c) - 0.5 * static_cast<double>(m - 1);
+        A(static_cast<Eigen::Index>(c), 0) = 1.0;
+        A(static_cast<Eigen::Index>(c), 1) = x;
+        A(static_cast<Eigen::Index>(c), 2) = x * x;
+      }
+    const auto      qr  = A.colPivHouseholderQr();
+    Eigen::VectorXd y(static_cast<Eigen::Index>(m));
+    double          sum = 0;
+    for (std::size_t j = 0; j < period; ++j)
+      {
+        for (std::size_t c = 0; c < m; ++c)
+          y(static_cast<Eigen::Index>(c)) = v[(first + c) * period + j];
+        sum += (y - A * qr.solve(y)).squaredNorm();
+      }
+    return std::sqrt(sum / static_cast<double>(period * (m - 3)));
+  }
+
   RunCase make_run_case(MeasuredRun run, system::Scenario scenario, double frequency_Hz,
-                        double training_fraction)
+                        double training_fraction, bool repair_outliers, double harmonics)
   {
     RunCase rc;
+    if (repair_outliers)
+      rc.outliers = run.repair_outliers();
+    const double f = frequency_Hz > 0 ? frequency_Hz : run.drive_frequency_Hz();
+    for (const auto &c : signal_columns())
+      if (run.has(c))
+        rc.white_sd[c] = white_noise_sd(run.signal(c));
+    if (harmonics > 0 && uniformly_sampled(run.time_s))
+      {
+        const double dt = run.duration_s() / static_cast<double>(run.time_s.size() - 1);
+        rc.band_Hz      = (harmonics + 0.5) * f;
+        if (rc.band_Hz * dt < 0.5)
+          {
+            rc.band_fraction = rc.band_Hz * dt * 2.0;
+            std::vector<double> t(run.time_s.size());
+            for (std::size_t i = 0; i < t.size(); ++i)
+              t[i] = run.time_s[i] - run.time_s.front();
+            for (const auto &c : signal_columns())
+              if (run.has(c))
+                run.signals[c] = band_limit(t, run.signal(c), rc.band_Hz);
+          }
+        else
+          rc.band_Hz = 0;
+      }
+    for (const auto &c : signal_columns())
+      if (run.has(c))
+        rc.cyclic_sd[c] = cycle_scatter(run.time_s, run.signal(c), f);
     rc.setup.scenario     = scenario;
-    rc.setup.frequency_Hz = frequency_Hz > 0 ? frequency_Hz : run.drive_frequency_Hz();
+    rc.setup.frequency_Hz = f;
     rc.swings             = signal_scales(run);
     rc.scales             = rc.swings;
     rc.drive_noise_sd     = white_noise_sd(run.signal(run.drive_column()));
@@ -439,9 +617,8 @@ namespace rectify::diagnosis
     std::vector<std::vector<Signals>> shaken(runs.size(), std::vector<Signals>(realisations + 1));
     parallel_for(runs.size() * (realisations + 1), threads, [&](std::size_t job) {
       const std::size_t i = job / (realisations + 1), k = job % (realisations + 1);
-      const auto       &rc = runs[i];
-      SimulationOptions so;
-      so.relative_tolerance = rtol;
+      const auto &rc = runs[i];
+      auto        so = rc.simulation(rtol);
       if (k > 0 && !(rc.drive_noise_sd > 0))
         return;
       if (k > 0)
@@ -469,11 +646,242 @@ namespace rectify::diagnosis
                 }
             std::sort(d2.begin(), d2.end());
             const double response = d2.empty() ? 0.0 : d2[d2.size() / 2];
-            const double measured = white_noise_sd(rc.run.signal(name));
+            // the data's own noise inside the band: white noise's share of
+            // it, or (coloured noise, flutter) the scatter from cycle to cycle
+            const double white    = (rc.white_sd.count(name) ? rc.white_sd.at(name) : white_noise_sd(rc.run.signal(name))) *
+                                 std::sqrt(rc.band_fraction);
+            const double measured = std::max(white, rc.cyclic_sd.count(name) ? rc.cyclic_sd.at(name) : 0.0);
             rc.scales[name] = std::max(std::sqrt(measured * measured + response), 1e-3 * rc.swings.at(name));
           }
       }
   }
+
+  void choose_start(const system::SystemParameters &base, const system::ValveMaps &map,
+                    std::vector<RunCase> &runs, const DiagnoseOptions &options, unsigned threads)
+  {
+    const auto lead = [&](StartState s) {
+      return s == StartState::rest ? 0.0 : s == StartState::steady ? 3.0 : options.lead_cycles;
+    };
+    const std::vector<StartState> all{StartState::rest, StartState::steady, StartState::periodic};
+    std::vector<StartState>       tried = all;
+    if (options.start != "auto")
+      tried = {start_state_from_string(options.start)};
+    // each run with each start: the residual over its first two cycles (in
+    // units of each signal's swing), the case's baseline
+    std::vector<std::vector<double>> score(runs.size(), std::vector<double>(tried.size(), 0.0));
+    if (tried.size() > 1)
+      parallel_for(runs.size() * tried.size(), threads, [&](std::size_t job) {
+        const std::size_t r = job / tried.size(), k = job % tried.size();
+        RunCase           rc = runs[r];
+        rc.start             = tried[k];
+        rc.lead_cycles       = lead(tried[k]);
+        auto       so        = rc.simulation(options.relative_tolerance);
+        const auto &t        = rc.run.time_s;
+        const double dt      = (t.back() - t.front()) / static_cast<double>(t.size() - 1);
+        so.n_samples = std::min(t.size(), static_cast<std::size_t>(2.0 / (rc.setup.frequency_Hz * dt)) + 1);
+        try
+          {
+            const auto model = simulate_run(base, map, rc.run, rc.setup, so);
+            const auto r2    = squared_residual(rc.run, model, rc.swings, 0, so.n_samples);
+            score[r][k]      = std::sqrt(r2.sum / static_cast<double>(std::max<std::size_t>(r2.n, 1)));
+          }
+        catch (const std::exception &)
+          {
+            score[r][k] = 1e300;
+          }
+      });
+    for (std::size_t r = 0; r < runs.size(); ++r)
+      {
+        auto       &rc   = runs[r];
+        std::size_t best = 0;
+        rc.start_scores  = nlohmann::json::object();
+        // the first tried (rest) unless another fits clearly better: a run
+        // that starts at rest under a drive that starts at zero is also a
+        // steady start, within the drive's noise
+        for (std::size_t k = 0; k < tried.size(); ++k)
+          {
+            if (tried.size() > 1)
+              rc.start_scores[to_string(tried[k])] = score[r][k];
+            if (score[r][k] < 0.95 * score[r][best])
+              best = k;
+          }
+        rc.start       = tried[best];
+        rc.lead_cycles = lead(rc.start);
+        const double settling =
+          options.settling_cycles >= 0 ? options.settling_cycles : rc.start == StartState::rest ? 0.0 : 1.0;
+        const auto  &t  = rc.run.time_s;
+        const double dt = (t.back() - t.front()) / static_cast<double>(t.size() - 1);
+        rc.n_skip = std::min(rc.n_train / 2, static_cast<std::size_t>(std::llround(settling / (rc.setup.frequency_Hz * dt))));
+      }
+  }
+
+  namespace
+  {
+    /// The baseline fit's parameters (free [uncertain] ones and the gain):
+    /// their standard errors from the Gauss-Newton covariance s^2 (J^T J)^-1
+    /// at the fit (J by forward differences in the [0, 1] positions, s^2 =
+    /// SSR / n); while the largest exceeds `limit`, or two parameters
+    /// correlate beyond 0.98, one is held at the case's value and the rest
+    /// re-checked. Returns one entry per
+    /// [uncertain] parameter and the gain; sets ev.free to the identifiable
+    /// ones and ev.held / ev.nuisance_start to the fit.
+    std::vector<BaselineParameter> check_identifiability(Evaluator &ev, const CandidateResult &none,
+                                                         double limit, int &runs_of_the_model)
+    {
+      const auto               &base = ev.base;
+      const std::vector<double> u0   = none.u; // [free..., gain]
+      const std::size_t         m    = u0.size();
+      const std::vector<double> r0   = ev.residual_vector(u0);
+      ++runs_of_the_model;
+      const double s2 = [&] {
+        double sum = 0;
+        for (double e : r0)
+          sum += e * e;
+        return std::max(sum / static_cast<double>(std::max<std::size_t>(r0.size(), 1)), 1e-300);
+      }();
+      Eigen::MatrixXd J(static_cast<Eigen::Index>(r0.size()), static_cast<Eigen::Index>(m));
+      for (std::size_t j = 0; j < m; ++j)
+        {
+          const double h = u0[j] + 0.01 <= 1.0 ? 0.01 : -0.01;
+          auto         u = u0;
+          u[j] += h;
+          std::vector<double> r;
+          try
+            {
+              r = ev.residual_vector(u);
+            }
+          catch (const std::exception &)
+            {
+              r = r0; // no information from a failed run
+            }
+          ++runs_of_the_model;
+          for (std::size_t i = 0; i < r0.size(); ++i)
+            J(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) =
+              (i < r.size() ? r[i] - r0[i] : 0.0) / h;
+        }
+      std::vector<bool>   active(m, true);
+      std::vector<double> sd(m, 0.0);
+      std::vector<std::string> note(m);
+      for (;;)
+        {
+          std::vector<Eigen::Index> cols;
+          for (std::size_t j = 0; j < m; ++j)
+            if (active[j])
+              cols.push_back(static_cast<Eigen::Index>(j));
+          if (cols.empty())
+            break;
+          Eigen::MatrixXd Js(J.rows(), static_cast<Eigen::Index>(cols.size()));
+          for (std::size_t c = 0; c < cols.size(); ++c)
+            Js.col(static_cast<Eigen::Index>(c)) = J.col(cols[c]);
+          const Eigen::MatrixXd F = Js.transpose() * Js / s2;
+          Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(F);
+          Eigen::VectorXd inv = eig.eigenvalues();
+          const double    top = std::max(inv.maxCoeff(), 1e-300);
+          for (Eigen::Index k = 0; k < inv.size(); ++k)
+            inv(k) = inv(k) > 1e-12 * top ? 1.0 / inv(k) : 1e300;
+          const Eigen::MatrixXd C = eig.eigenvectors() * inv.asDiagonal() * eig.eigenvectors().transpose();
+          std::size_t worst = 0;
+          double      worst_sd = -1;
+          for (std::size_t c = 0; c < cols.size(); ++c)
+            {
+              const auto   k = static_cast<Eigen::Index>(c);
+              const double v = std::sqrt(std::max(C(k, k), 0.0));
+              sd[static_cast<std::size_t>(cols[c])] = v;
+              // strongest correlation, for the report
+              double best = 0;
+              std::size_t with = 0;
+              for (std::size_t d = 0; d < cols.size(); ++d)
+                if (d != c)
+                  {
+                    const auto   l = static_cast<Eigen::Index>(d);
+                    const double r = C(k, l) / std::sqrt(std::max(C(k, k) * C(l, l), 1e-300));
+                    if (std::abs(r) > std::abs(best))
+                      {
+                        best = r;
+                        with = static_cast<std::size_t>(cols[d]);
+                      }
+                  }
+              if (std::abs(best) > 0.9)
+                {
+                  char buf[160];
+                  std::snprintf(buf, sizeof buf, "correlated %.3f with %s", best,
+                                with + 1 == m ? "force_gain" : base.uncertain[ev.free[with]].name().c_str());
+                  note[static_cast<std::size_t>(cols[c])] = buf;
+                }
+              else
+                note[static_cast<std::size_t>(cols[c])].clear();
+              if (v > worst_sd)
+                {
+                  worst_sd = v;
+                  worst    = static_cast<std::size_t>(cols[c]);
+                }
+            }
+          // a pair the data cannot tell apart (|correlation| > 0.98: only a
+          // combination is determined, e.g. the cylinder's area and oil
+          // column in a no-flow run) holds the less certain of the two
+          if (!(worst_sd > limit))
+            for (std::size_t c = 0; c < cols.size() && !(worst_sd > limit); ++c)
+              for (std::size_t d = c + 1; d < cols.size(); ++d)
+                {
+                  const auto   k = static_cast<Eigen::Index>(c), l = static_cast<Eigen::Index>(d);
+                  const double r = C(k, l) / std::sqrt(std::max(C(k, k) * C(l, l), 1e-300));
+                  if (std::abs(r) > 0.98)
+                    {
+                      worst    = static_cast<std::size_t>(C(k, k) >= C(l, l) ? cols[c] : cols[d]);
+                      worst_sd = 2 * limit; // held below
+                      break;
+                    }
+                }
+          if (!(worst_sd > limit))
+            break;
+          active[worst] = false;
+          char buf[200];
+          std::snprintf(buf, sizeof buf, "held at the case's value: standard error %.2g of its range%s%s",
+                        sd[worst], note[worst].empty() ? "" : ", ", note[worst].c_str());
+          note[worst] = buf;
+        }
+      std::vector<BaselineParameter> out;
+      std::vector<std::size_t>       still_free;
+      std::vector<double>            start;
+      for (std::size_t j = 0; j + 1 < m; ++j)
+        {
+          const std::size_t q_index = ev.free[j];
+          const auto       &q       = base.uncertain[q_index];
+          BaselineParameter b;
+          b.name         = q.name();
+          b.value        = uncertain_from_unit(q, u0[j]);
+          b.nominal      = base.real_value(q.table, q.key);
+          b.lower        = q.lower;
+          b.upper        = q.upper;
+          b.sd_unit      = sd[j];
+          b.identifiable = active[j];
+          b.note         = note[j];
+          out.push_back(b);
+          // held: at the case's value (the prior), not at this fit, which a
+          // missing effect may have pulled anywhere
+          ev.held[q_index] = active[j] ? u0[j] : uncertain_to_unit(q, b.nominal);
+          if (active[j])
+            {
+              still_free.push_back(q_index);
+              start.push_back(u0[j]);
+            }
+        }
+      BaselineParameter g;
+      g.name         = "force_gain";
+      g.value        = ev.gain(u0);
+      g.nominal      = 1.0;
+      g.lower        = 1.0 - ev.options.gain_range;
+      g.upper        = 1.0 + ev.options.gain_range;
+      g.sd_unit      = sd[m - 1];
+      g.identifiable = active[m - 1];
+      g.note         = note[m - 1];
+      out.push_back(g);
+      ev.free = still_free;
+      start.push_back(u0[m - 1]); // the gain is always fitted: held ones only lose their freedom
+      ev.nuisance_start = start;
+      return out;
+    }
+  } // namespace
 
   DiagnosisResult diagnose(const system::SystemParameters &base_in, const system::ValveMaps &map,
                            std::vector<RunCase> runs, const DiagnoseOptions &options)
@@ -482,6 +890,7 @@ namespace rectify::diagnosis
     if (runs.empty())
       throw InputError("diagnose: no measured runs given");
     const unsigned cores = options.threads ? options.threads : std::max(1u, std::thread::hardware_concurrency());
+    choose_start(base_in, map, runs, options, cores);
     calibrate_noise(base_in, map, runs, options.relative_tolerance, cores);
     DiagnosisResult result;
     RunTraits       traits;
@@ -512,11 +921,12 @@ namespace rectify::diagnosis
           f.push_back(runs[r].setup.frequency_Hz);
           const auto &d = runs[r].run.signal(runs[r].run.drive_column());
           a.push_back(*std::max_element(d.begin(), d.end()) - *std::min_element(d.begin(), d.end()));
-          res.push_back(residual_norms(runs[r].run, result.before[r], runs[r].swings).at("overall"));
+          res.push_back(residual_norms(runs[r].run, result.before[r], runs[r].swings, runs[r].n_skip).at("overall"));
         }
       result.trend_sentences = trends(f, a, res);
     }
     std::vector<Signals> current = result.before;
+    std::vector<Signals> baseline_prediction; // the first round's baseline fit ("none")
     std::vector<std::string> named;
 
     for (int round = 0; round < std::max(1, options.rounds); ++round)
@@ -540,18 +950,42 @@ namespace rectify::diagnosis
         std::vector<CandidateResult>      fitted(todo.size());
         std::vector<std::vector<Signals>> predictions(todo.size());
         std::mutex                        mutex; // for the progress lines
-        parallel_for(todo.size(), cores, [&](std::size_t i) {
-          Evaluator ev{base, map, runs, todo[i], options, 1, &current};
-          fitted[i] = fit(ev, predictions[i]);
-          if (options.progress)
-            {
-              std::lock_guard lock(mutex);
-              char            buf[256];
-              std::snprintf(buf, sizeof buf, "%-18s BIC %.6g, held-out RMS %.4g, %d runs of the model, %.1f s",
-                            fitted[i].effect.c_str(), fitted[i].bic, fitted[i].rms_heldout,
-                            fitted[i].evaluations, fitted[i].wall_time_s);
-              options.progress(buf);
-            }
+        const auto                        report = [&](const CandidateResult &c) {
+          if (!options.progress)
+            return;
+          std::lock_guard lock(mutex);
+          char            buf[256];
+          std::snprintf(buf, sizeof buf, "%-18s BIC %.6g, held-out RMS %.4g, %d runs of the model, %.1f s",
+                        c.effect.c_str(), c.bic, c.rms_heldout, c.evaluations, c.wall_time_s);
+          options.progress(buf);
+        };
+        // The baseline first: "none" with every [uncertain] parameter and the
+        // force gain; then which of them the data determine (the others are
+        // held at this fit), and every candidate from there.
+        Evaluator baseline_ev = Evaluator::make(base, map, runs, nullptr, options, cores, &current);
+        fitted[0]             = fit(baseline_ev, predictions[0]);
+        int checks            = 0;
+        rr.baseline_check =
+          check_identifiability(baseline_ev, fitted[0], options.identifiability_sd, checks);
+        fitted[0].evaluations += checks;
+        if (baseline_ev.free.size() + 1 < fitted[0].u.size())
+          {
+            // some held at the case's values: refit none in the same space
+            // as the candidates, so that their scores compare like with like
+            const int before = fitted[0].evaluations;
+            std::vector<double> from = baseline_ev.nuisance_start;
+            fitted[0]                = fit(baseline_ev, predictions[0], &from);
+            fitted[0].evaluations += before;
+          }
+        report(fitted[0]);
+        parallel_for(todo.size() - 1, cores, [&](std::size_t j) {
+          const std::size_t i  = j + 1;
+          Evaluator         ev = baseline_ev;
+          ev.effect            = todo[i];
+          ev.run_threads       = 1;
+          ev.reference         = &current;
+          fitted[i]            = fit(ev, predictions[i]);
+          report(fitted[i]);
         });
 
         const CandidateResult &none = fitted[0];
@@ -571,12 +1005,14 @@ namespace rectify::diagnosis
         std::sort(order.begin(), order.end(),
                   [&](auto a, auto b) { return fitted[a].bic < fitted[b].bic; });
 
-        // the dominant feature of the residual before this round
+        // the dominant feature of the residual that the calibrated baseline
+        // (none's fit) leaves: what an effect must explain beyond it
+        const std::vector<Signals> &calibrated = predictions[0].empty() ? current : predictions[0];
         double worst = -1;
         std::string signal, half;
         for (std::size_t r = 0; r < runs.size(); ++r)
           {
-            const auto L = localise(runs[r].run, current[r], runs[r].setup.frequency_Hz, runs[r].scales);
+            const auto L = localise(runs[r].run, calibrated[r], runs[r].setup.frequency_Hz, runs[r].scales);
             const auto v = L.numbers[L.dominant_signal]["rms_normalised"].get<double>();
             if (v > worst)
               {
@@ -595,7 +1031,8 @@ namespace rectify::diagnosis
             }
           return std::sqrt(s / static_cast<double>(runs.size()));
         };
-        const double feature_before = feature(current);
+        const double feature_before = feature(calibrated);
+        const auto   gap            = [](double r) { return std::sqrt(std::max(r * r - 1.0, 0.0)); };
 
         std::string reasons;
         for (std::size_t i : order)
@@ -617,6 +1054,22 @@ namespace rectify::diagnosis
                 reasons += buf;
                 continue;
               }
+            // the gap above the noise that the calibrated baseline leaves
+            // (training RMS): an effect must close at least half of it. BIC
+            // alone counts every sample as independent, which coloured noise
+            // and small model errors are not: over 10^4 samples a fit that
+            // closes 4 % of a 1.35-unit residual still "wins" by 600.
+            const double closed = gap(none.rms_train) > 0 ? 1.0 - gap(c.rms_train) / gap(none.rms_train) : 0.0;
+            if (!(closed >= options.min_gap_closed))
+              {
+                std::snprintf(buf, sizeof buf,
+                              "%s: closes only %.0f %% of the gap above the noise that the calibrated baseline "
+                              "leaves (training RMS %.3g -> %.3g noise units; needs %.0f %%). ",
+                              c.effect.c_str(), 100 * closed, none.rms_train, c.rms_train,
+                              100 * options.min_gap_closed);
+                reasons += buf;
+                continue;
+              }
             const double after = feature(predictions[i]);
             if (!(after <= 0.5 * feature_before))
               {
@@ -629,6 +1082,7 @@ namespace rectify::diagnosis
             rr.effect     = c.effect;
             rr.values     = c.values;
             rr.force_gain = c.force_gain;
+            rr.baseline   = c.baseline;
             rr.confidence = std::exp(-0.5 * (c.bic - bic_min)) / weight_sum;
             rr.signature_explained = true;
             std::snprintf(buf, sizeof buf,
@@ -653,7 +1107,10 @@ namespace rectify::diagnosis
             std::vector<double> u = c.u;
             for (int pass = 0; pass < options.refine_passes; ++pass)
               {
-                Evaluator ev{base, map, runs, todo[i], options, cores}; // one fit: its runs at once
+                Evaluator ev   = baseline_ev; // one fit: its runs at once
+                ev.effect      = todo[i];
+                ev.reference   = nullptr;
+                ev.run_threads = cores;
                 calibrate_noise(ev.parameters(u), map, runs, options.relative_tolerance, cores);
                 std::vector<Signals> refined;
                 const auto           r = fit(ev, refined, &u);
@@ -665,6 +1122,7 @@ namespace rectify::diagnosis
                 u             = r.u;
                 rr.values     = r.values;
                 rr.force_gain = r.force_gain;
+                rr.baseline   = r.baseline;
                 current       = refined;
                 ++rr.refine_passes;
                 if (moved < 0.01)
@@ -676,6 +1134,7 @@ namespace rectify::diagnosis
           {
             rr.values     = {};
             rr.force_gain = none.force_gain;
+            rr.baseline   = none.baseline;
             rr.confidence = std::exp(-0.5 * (none.bic - bic_min)) / weight_sum;
             rr.decision   = "no significant missing effect: " + reasons;
             current       = predictions[0];
@@ -690,6 +1149,11 @@ namespace rectify::diagnosis
             named.push_back(rr.effect);
           }
         base.transducer.piezomagnetic_coefficient_m_per_A *= rr.force_gain;
+        for (const auto &q : base.uncertain) // the baseline as fitted: the next round starts there
+          if (rr.baseline.count(q.name()))
+            *base.real_field(q.table, q.key) = rr.baseline.at(q.name());
+        if (round == 0)
+          baseline_prediction = predictions[0];
         if (rr.effect == "none")
           break;
       }
@@ -697,6 +1161,68 @@ namespace rectify::diagnosis
     result.after            = current;
     result.residual_before  = pooled_norms(runs, result.before, false);
     result.residual_after   = pooled_norms(runs, result.after, false);
+    // The verdict, honestly: how much of the gap above the noise that the
+    // baseline fit leaves does the named effect close, and what is left.
+    {
+      const double floor_units = options.beyond_library_noise_units;
+      const double baseline    = baseline_prediction.empty() ?
+                                   result.residual_after.at("overall") :
+                                   pooled_norms(runs, baseline_prediction, false).at("overall");
+      const double after       = result.residual_after.at("overall");
+      const auto   gap         = [](double r) { return std::sqrt(std::max(r * r - 1.0, 0.0)); };
+      result.residual_baseline  = baseline;
+      result.explained_fraction = gap(baseline) > 0 ? std::clamp(1.0 - gap(after) / gap(baseline), 0.0, 1.0) : 0.0;
+      // where the rest lies: the largest residual of the final model
+      std::string where;
+      double      worst = -1;
+      for (std::size_t r = 0; r < runs.size(); ++r)
+        {
+          const auto L = localise(runs[r].run, result.after[r], runs[r].setup.frequency_Hz, runs[r].swings);
+          const auto v = residual_norms(runs[r].run, result.after[r], runs[r].scales, runs[r].n_skip)
+                           .at(L.dominant_signal);
+          if (v > worst && !L.sentences.empty())
+            {
+              worst = v;
+              where = L.sentences.front();
+            }
+        }
+      const std::string named_effect = result.rounds.front().effect;
+      char              buf[512];
+      if (named_effect != "none" && after <= floor_units)
+        {
+          result.verdict = "explained";
+          std::snprintf(buf, sizeof buf,
+                        "%s explains the gap: residual %.3g noise units with the calibrated baseline alone, "
+                        "%.3g with it (%.0f %% of the gap above the noise closed)",
+                        named_effect.c_str(), baseline, after, 100 * result.explained_fraction);
+        }
+      else if (named_effect != "none")
+        {
+          result.verdict = "partly explained";
+          std::snprintf(buf, sizeof buf,
+                        "%s explains %.0f %% of the gap above the noise (residual %.3g -> %.3g noise units); "
+                        "%.3g noise units remain, more than %.3g: model error beyond the library. Largest "
+                        "remaining residual: %s",
+                        named_effect.c_str(), 100 * result.explained_fraction, baseline, after, after,
+                        floor_units, where.c_str());
+        }
+      else if (after <= floor_units)
+        {
+          result.verdict = "no missing effect";
+          std::snprintf(buf, sizeof buf,
+                        "no missing effect: the calibrated baseline leaves %.3g noise units (at most %.3g)",
+                        after, floor_units);
+        }
+      else
+        {
+          result.verdict = "beyond the library";
+          std::snprintf(buf, sizeof buf,
+                        "beyond the library: no effect of the library earns its parameters, and %.3g noise "
+                        "units remain after the baseline fit (more than %.3g). Largest remaining residual: %s",
+                        after, floor_units, where.c_str());
+        }
+      result.verdict_sentence = buf;
+    }
     result.swing_before     = pooled_norms(runs, result.before, true);
     result.swing_after      = pooled_norms(runs, result.after, true);
     result.runs             = runs;
@@ -735,6 +1261,7 @@ namespace rectify::diagnosis
             else
               {
                 cj["force_gain"]   = c.force_gain;
+                cj["baseline"]     = c.baseline;
                 cj["k"]            = c.k;
                 cj["bic"]          = c.bic;
                 cj["aic"]          = c.aic;
@@ -747,9 +1274,20 @@ namespace rectify::diagnosis
               }
             candidates.push_back(cj);
           }
+        json check = json::array();
+        for (const auto &b : rr.baseline_check)
+          check.push_back({{"parameter", b.name},
+                           {"fitted", b.value},
+                           {"case_value", b.nominal},
+                           {"bounds", {b.lower, b.upper}},
+                           {"standard_error_of_range", b.sd_unit},
+                           {"identifiable", b.identifiable},
+                           {"note", b.note}});
         rounds.push_back({{"effect", rr.effect},
                           {"parameters", p},
                           {"force_gain", rr.force_gain},
+                          {"baseline", rr.baseline},
+                          {"baseline_fit", check},
                           {"confidence", rr.confidence},
                           {"decision", rr.decision},
                           {"signature_explained", rr.signature_explained},
@@ -763,6 +1301,20 @@ namespace rectify::diagnosis
     for (std::size_t i = 0; i < runs.size(); ++i)
       localisation.push_back({{"run", runs[i].run.source},
                               {"frequency_Hz", runs[i].setup.frequency_Hz},
+                              {"start", to_string(r.runs[i].start)},
+                              {"start_residuals", r.runs[i].start_scores},
+                              {"lead_cycles", r.runs[i].lead_cycles},
+                              {"settling_samples_left_out", r.runs[i].n_skip},
+                              {"outliers", [&] {
+                                 json o = json::array();
+                                 for (const auto &x : r.runs[i].outliers)
+                                   o.push_back({{"column", x.column},
+                                                {"row", x.row},
+                                                {"time_s", x.time_s},
+                                                {"size", x.size},
+                                                {"noise_units", x.noise_units}});
+                                 return o;
+                               }()},
                               {"sentences", r.localisation[i].sentences},
                               {"numbers", r.localisation[i].numbers}});
     double shrink = 0;
@@ -775,6 +1327,12 @@ namespace rectify::diagnosis
             {"residual_before", r.residual_before},
             {"residual_after", r.residual_after},
             {"residual_shrink", shrink},
+            {"verdict", r.verdict},
+            {"verdict_sentence", r.verdict_sentence},
+            {"explained_fraction", r.explained_fraction},
+            {"residual_baseline_fit", r.residual_baseline},
+            {"baseline", first.baseline},
+            {"baseline_fit", rounds.front()["baseline_fit"]},
             {"residual_before_fraction_of_swing", r.swing_before},
             {"residual_after_fraction_of_swing", r.swing_after},
             {"candidates", rounds.front()["candidates"]},

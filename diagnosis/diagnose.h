@@ -55,9 +55,35 @@ namespace rectify::diagnosis
     /// and each fit runs the model some twenty times per candidate.
     double              relative_tolerance = 1e-5;
     double              bic_threshold      = 10.0;
+    /// A named effect must close at least this share of the gap above the
+    /// noise (sqrt(rms^2 - 1)) that the calibrated baseline leaves.
+    double              min_gap_closed     = 0.5;
     int                 grid_points        = 9;  ///< coarse start grid per effect parameter
     int                 max_evaluations    = 40; ///< BOBYQA's, per candidate
     double              gain_range         = 0.1; ///< nuisance force gain in 1 +- this
+    /// Where each record starts: "auto" (the one of rest, steady and
+    /// periodic whose model fits the record's first two cycles best, with the
+    /// case's baseline), or one of them for every run (observation.h).
+    std::string         start              = "auto";
+    double              lead_cycles        = 10;  ///< run-in before a periodic start (steady: 3)
+    /// Cycles at the start of each record left out of every residual
+    /// (the estimated start state is approximate); < 0: 0 for a rest start, 1 otherwise.
+    double              settling_cycles    = -1;
+    bool                repair_outliers    = true; ///< find isolated spikes, report and replace them
+    /// Data and model are compared within the first `harmonics` harmonics of
+    /// the pumping frequency (both band-limited at (harmonics + 0.5) f): fast
+    /// ringing and flutter, which two models of one pump reproduce
+    /// differently and which a measured drive's noise sets, do not decide.
+    /// 0: the whole band.
+    double              harmonics          = 10;
+    /// A baseline parameter ([uncertain] in the case, and the force gain)
+    /// whose standard error at the baseline fit exceeds this share of its
+    /// (log) range is reported and held at that fit's value, not traded
+    /// against an effect.
+    double              identifiability_sd = 0.15;
+    /// A residual left above this many noise units after the fit means model
+    /// error beyond the library (the verdict says so).
+    double              beyond_library_noise_units = 2.0;
     int                 refine_passes      = 3;  ///< at most, after naming (see diagnose.cpp)
     std::vector<std::string> effects;              ///< candidates; empty: the whole library
     unsigned            threads = 0;               ///< 0: all cores
@@ -73,7 +99,30 @@ namespace rectify::diagnosis
     std::map<std::string, double> scales; ///< residual scale per signal (noise, see above)
     std::map<std::string, double> swings; ///< RMS about the mean per signal (for words)
     double                        drive_noise_sd = 0; ///< estimated from the drive
-    std::size_t                   n_train = 0; ///< samples the fit sees
+    std::size_t                   n_train = 0; ///< samples the fit sees (end of the training part)
+    std::size_t                   n_skip  = 0; ///< settling samples left out at the start
+    StartState                    start   = StartState::rest;
+    double                        lead_cycles = 0;   ///< simulated before the record
+    nlohmann::json                start_scores;      ///< residual of each start tried (auto)
+    std::vector<Outlier>          outliers;          ///< found and replaced in the record
+    double                        band_Hz = 0;        ///< the comparison's band (0: whole)
+    double                        band_fraction = 1;  ///< of the white noise's power inside it
+    std::map<std::string, double> white_sd;           ///< each signal's white noise (whole band)
+    std::map<std::string, double> cyclic_sd;          ///< its cycle-to-cycle scatter inside the band
+
+    /// The simulation options for this run (start, lead).
+    SimulationOptions simulation(double relative_tolerance) const;
+  };
+
+  /// A baseline parameter at the baseline fit ("none" with every uncertain
+  /// parameter and the force gain) and whether the data determine it.
+  struct BaselineParameter
+  {
+    std::string name;          ///< "table.key", or "force_gain"
+    double      value = 0, nominal = 0, lower = 0, upper = 0;
+    double      sd_unit = 0;   ///< standard error as a share of its (log) range
+    bool        identifiable = true;
+    std::string note;          ///< why held, strongest correlation
   };
 
   struct CandidateResult
@@ -82,6 +131,7 @@ namespace rectify::diagnosis
     std::string         not_testable;      ///< why it was skipped (then no fit)
     std::vector<double> values;            ///< fitted effect parameters
     double              force_gain = 1.0;  ///< fitted nuisance
+    std::map<std::string, double> baseline; ///< every [uncertain] parameter's value in this fit
     std::vector<double> u;                 ///< the fit as a point in [0, 1]^k
     int                 k          = 0;    ///< parameters fitted
     double              ssr_train  = 0;
@@ -99,6 +149,8 @@ namespace rectify::diagnosis
     std::string                  effect = "none"; ///< named effect or "none"
     std::vector<double>          values;
     double                       force_gain = 1.0;
+    std::map<std::string, double> baseline;       ///< [uncertain] values of the chosen fit
+    std::vector<BaselineParameter> baseline_check; ///< the baseline fit and identifiability
     double                       confidence = 0; ///< BIC weight of the named candidate
     std::string                  decision;       ///< the reasoning in words
     std::vector<CandidateResult> candidates;
@@ -117,12 +169,36 @@ namespace rectify::diagnosis
     std::vector<RunCase>      runs;                ///< the runs with their calibrated scales
     std::vector<Localisation> localisation;       ///< per run, before
     std::vector<std::string>  trend_sentences;
+    /// The honest verdict: "explained" (the named effect leaves at most
+    /// beyond_library_noise_units), "partly explained" (it leaves more: model
+    /// error beyond the library), "no missing effect" (the baseline fit
+    /// leaves at most that), "beyond the library" (no effect helps and the
+    /// residual stays above it).
+    std::string               verdict;
+    std::string               verdict_sentence;
+    double                    explained_fraction = 0; ///< of the gap above the noise left by the baseline fit
+    double                    residual_baseline  = 0; ///< overall, the baseline fit (none), noise units
     double                    wall_time_s = 0;
   };
 
   /// Prepares a run: its frequency (given, or from the drive) and scales.
   RunCase make_run_case(MeasuredRun run, system::Scenario scenario, double frequency_Hz,
-                        double training_fraction);
+                        double training_fraction, bool repair_outliers = true, double harmonics = 0);
+
+  /// The scatter of a signal from cycle to cycle: per phase of the cycle
+  /// (uniform sampling, a whole number of samples per cycle to 1 %), a
+  /// quadratic in the cycle index through its values in the cycles of the
+  /// record's second half (at least 5; so a slow build-up or drift is not
+  /// counted), the residuals' RMS (for the quadratic's three parameters). What the record does not repeat:
+  /// noise of any colour, flutter. 0 if it cannot be measured.
+  double cycle_scatter(const std::vector<double> &times, const std::vector<double> &values,
+                       double frequency_Hz);
+
+  /// Sets each run's start state (options.start; "auto": the best of the
+  /// three over the record's first two cycles with the model `base`) and
+  /// its settling window.
+  void choose_start(const system::SystemParameters &base, const system::ValveMaps &map,
+                    std::vector<RunCase> &runs, const DiagnoseOptions &options, unsigned threads = 1);
 
   /// Sets each run's residual scales (noise) with the model `base`, the
   /// runs simulated `threads` at once.

@@ -1,4 +1,5 @@
 #include "diagnosis/measured_run.h"
+#include "diagnosis/residuals.h"
 
 #include <algorithm>
 #include <cmath>
@@ -176,5 +177,36 @@ namespace rectify::diagnosis
     std::stringstream s;
     s << in.rdbuf();
     return parse(s.str(), path.string(), frequency_Hz, min_cycles);
+  }
+
+  std::vector<Outlier> MeasuredRun::repair_outliers(double threshold)
+  {
+    std::vector<Outlier> found;
+    for (auto &[column, x] : signals)
+      {
+        if (x.size() < 5)
+          continue;
+        const double sd = white_noise_sd(x);
+        if (!(sd > 0))
+          continue;
+        const double limit  = threshold * std::sqrt(1.5) * sd;
+        const auto   offset = [&](std::size_t k) { return x[k] - 0.5 * (x[k - 1] + x[k + 1]); };
+        for (std::size_t k = 2; k + 2 < x.size(); ++k)
+          {
+            const double d = offset(k);
+            if (!(std::abs(d) > limit))
+              continue;
+            const double before = offset(k - 1), after = offset(k + 1);
+            const auto   partner = [&](double e) {
+              return e * d < 0 && std::abs(e) > 0.25 * std::abs(d) && std::abs(e) < 0.75 * std::abs(d);
+            };
+            if (!partner(before) || !partner(after))
+              continue;
+            found.push_back({column, k + 1, time_s[k] - time_s.front(), d, d / sd});
+            x[k] = 0.5 * (x[k - 1] + x[k + 1]);
+          }
+      }
+    std::sort(found.begin(), found.end(), [](const Outlier &a, const Outlier &b) { return a.time_s < b.time_s; });
+    return found;
   }
 } // namespace rectify::diagnosis

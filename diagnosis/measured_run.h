@@ -15,6 +15,17 @@
 
 namespace rectify::diagnosis
 {
+  /// One sample that stands alone far off its neighbours (a spike), found
+  /// and replaced by repair_outliers.
+  struct Outlier
+  {
+    std::string column;
+    std::size_t row         = 0; ///< data row (1 = the first after the header)
+    double      time_s      = 0; ///< from the record's start
+    double      size        = 0; ///< its offset from its neighbours' mean, in the column's unit
+    double      noise_units = 0; ///< the same over the column's white noise sd
+  };
+
   struct MeasuredRun
   {
     std::string                                source;  ///< the file, for messages
@@ -44,5 +55,14 @@ namespace rectify::diagnosis
     static MeasuredRun parse(const std::string &text, const std::string &source, double frequency_Hz = 0,
                              double min_cycles = 2);
     static MeasuredRun read(const std::filesystem::path &path, double frequency_Hz = 0, double min_cycles = 2);
+
+    /// Finds isolated spikes in every column (the drive's included) and
+    /// replaces each by the mean of its two neighbours. A spike is a sample
+    /// whose offset from its neighbours' mean, d_k = x_k - (x_{k-1} + x_{k+1}) / 2,
+    /// exceeds `threshold` standard deviations of d for the column's white
+    /// noise (sd(d) = sqrt(1.5) sd), with both neighbours' offsets of the
+    /// opposite sign and a quarter to three quarters of its size (the
+    /// pattern one displaced sample leaves; a kink or a step does not).
+    std::vector<Outlier> repair_outliers(double threshold = 6.0);
   };
 } // namespace rectify::diagnosis

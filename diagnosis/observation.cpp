@@ -107,6 +107,36 @@ namespace rectify::diagnosis
     return back;
   }
 
+  std::vector<double> band_limit(const std::vector<double> &t, const std::vector<double> &v, double cutoff_Hz)
+  {
+    const std::size_t n = v.size();
+    if (n < 8 || !(cutoff_Hz > 0) || !uniformly_sampled(t))
+      return v;
+    const double dt = (t.back() - t.front()) / static_cast<double>(n - 1);
+    if (cutoff_Hz * dt >= 0.5)
+      return v;
+    const std::size_t   m = 2 * (n - 1); // the even extension, as in spectral_threshold
+    std::vector<double> y(m);
+    for (std::size_t i = 0; i < n; ++i)
+      y[i] = v[i];
+    for (std::size_t i = 1; i + 1 < n; ++i)
+      y[m - i] = v[i];
+    Eigen::FFT<double>                fft;
+    std::vector<std::complex<double>> spectrum;
+    fft.fwd(spectrum, y);
+    const double df = 1.0 / (static_cast<double>(m) * dt);
+    for (std::size_t k = 0; k < spectrum.size(); ++k)
+      {
+        const double f = static_cast<double>(std::min(k, m - k)) * df;
+        if (f > cutoff_Hz)
+          spectrum[k] = 0.0;
+      }
+    std::vector<double> back;
+    fft.inv(back, spectrum);
+    back.resize(n);
+    return back;
+  }
+
   std::vector<double> denoise_periodic(const std::vector<double> &t, const std::vector<double> &v,
                                        double frequency_Hz, int max_harmonic, double noise_sd)
   {
@@ -134,6 +164,65 @@ namespace rectify::diagnosis
     return rest;
   }
 
+  std::string to_string(StartState s)
+  {
+    switch (s)
+      {
+        case StartState::rest:
+          return "rest";
+        case StartState::steady:
+          return "steady";
+        case StartState::periodic:
+          return "periodic";
+      }
+    return "rest";
+  }
+
+  StartState start_state_from_string(const std::string &name)
+  {
+    for (auto s : {StartState::rest, StartState::steady, StartState::periodic})
+      if (to_string(s) == name)
+        return s;
+    throw InputError("start state '" + name + "': expected rest, steady or periodic");
+  }
+
+  system::Drive measured_drive(const MeasuredRun &run, double frequency_Hz, double extra_noise_sd,
+                               unsigned long seed, StartState start, double lead_cycles)
+  {
+    system::Drive d = measured_drive(run, frequency_Hz, extra_noise_sd, seed);
+    if (start == StartState::rest || !(lead_cycles > 0))
+      return d;
+    const auto        &t0  = run.time_s;
+    const std::size_t  n   = t0.size();
+    const double       dt  = (t0.back() - t0.front()) / static_cast<double>(n - 1);
+    const double       T   = 1.0 / frequency_Hz;
+    const double       lead = lead_cycles * T;
+    const auto         m   = static_cast<std::size_t>(std::ceil(lead / dt));
+    std::vector<double> times, values;
+    times.reserve(m + n);
+    values.reserve(m + n);
+    const double first = d.value(0.0);
+    for (std::size_t k = m; k > 0; --k)
+      {
+        const double t     = -static_cast<double>(k) * dt;
+        const double since = t + lead; // time since the lead began
+        const double ramp  = since >= T ? 1.0 : 0.5 * (1.0 - std::cos(std::numbers::pi * since / T));
+        double       target = first;
+        if (start == StartState::periodic)
+          target = d.value(t - std::floor(t / T) * T); // the record's first cycle, repeated
+        times.push_back(t);
+        values.push_back(ramp * target);
+      }
+    for (std::size_t i = 0; i < n; ++i)
+      {
+        const double t = t0[i] - t0.front();
+        times.push_back(t);
+        values.push_back(d.value(t));
+      }
+    return system::Drive::from_samples(std::move(times), std::move(values), frequency_Hz, d.is_voltage(),
+                                       run.source);
+  }
+
   system::Drive measured_drive(const MeasuredRun &run, double frequency_Hz,
                                double extra_noise_sd, unsigned long seed)
   {
@@ -158,7 +247,7 @@ namespace rectify::diagnosis
 
   Signals simulate_drive(const system::SystemParameters &p, const system::ValveMaps &map,
                          const system::Drive &drive, system::Scenario scenario,
-                         const std::vector<double> &times, double relative_tolerance)
+                         const std::vector<double> &times, double relative_tolerance, double t_start)
   {
     using namespace system;
     Model model(p, map, ValveModel::dynamic, scenario, drive);
@@ -170,7 +259,7 @@ namespace rectify::diagnosis
     const auto y0 = model.initial_state();
     auto       io = integrator_options(model, ro);
     io.quiet      = true; // a fit explores parameters where the model may fail: it says so itself
-    Integrator integrator(model, 0.0, y0, io);
+    Integrator integrator(model, t_start, y0, io);
 
     const bool loaded = scenario == Scenario::loaded;
     Signals    out;
@@ -206,13 +295,17 @@ namespace rectify::diagnosis
     std::vector<double> times(n);
     for (std::size_t i = 0; i < n; ++i)
       times[i] = run.time_s[i] - run.time_s.front();
-    Signals all = simulate_drive(p, map, measured_drive(run, setup.frequency_Hz, options.drive_noise_sd, options.seed),
-                                 setup.scenario,
-                                 times, options.relative_tolerance);
+    const bool   lead    = options.start != StartState::rest && options.lead_cycles > 0;
+    const double t_start = lead ? -options.lead_cycles / setup.frequency_Hz : 0.0;
+    Signals all = simulate_drive(p, map,
+                                 measured_drive(run, setup.frequency_Hz, options.drive_noise_sd, options.seed,
+                                                options.start, options.lead_cycles),
+                                 setup.scenario, times, options.relative_tolerance,
+                                 t_start);
     Signals out;
     for (auto &[name, values] : all)
       if (run.has(name))
-        out[name] = std::move(values);
+        out[name] = options.band_Hz > 0 ? band_limit(times, values, options.band_Hz) : std::move(values);
     return out;
   }
 } // namespace rectify::diagnosis

@@ -2,9 +2,12 @@
 // times, reduced to the signals the run measured (the columns of
 // MeasuredRun), so that data and model compare sample by sample.
 //
-// A run starts at rest: all pressures at the bias, reeds on their seats, at
-// the record's first time (taken as t = 0). Pressures are absolute [Pa];
-// `strain` is the piston (rod end) displacement over the rod length.
+// Where a record starts (StartState): at rest (all pressures at the bias,
+// reeds on their seats, the drive from zero), at the static state under the
+// record's first drive value, or in the periodic state of its drive (a
+// run-in of whole cycles before the record). The record's first time is
+// t = 0. Pressures are absolute [Pa]; `strain` is the piston (rod end)
+// displacement over the rod length.
 #pragma once
 
 #include <map>
@@ -28,11 +31,26 @@ namespace rectify::diagnosis
     double           frequency_Hz = 0; ///< pumping frequency (from the drive unless given)
   };
 
+  /// The state a record starts from (issue 17): a measured record rarely
+  /// starts at rest.
+  enum class StartState
+  {
+    rest,     ///< the model from rest at t = 0 (a synthetic run, a pump switched on)
+    steady,   ///< the static state under the drive's first value, held before the record
+    periodic  ///< the periodic state: the record's first cycle repeated before it (a run-in)
+  };
+  std::string to_string(StartState s);
+  /// "rest", "steady", "periodic"; InputError otherwise.
+  StartState start_state_from_string(const std::string &name);
+
   struct SimulationOptions
   {
+    StartState  start       = StartState::rest;
+    double      lead_cycles = 0; ///< cycles simulated before the record (steady, periodic)
     double      relative_tolerance = 1e-6;
     std::size_t n_samples          = 0; ///< simulate only the first n samples (0: all)
     double      drive_noise_sd     = 0; ///< add white noise of this sd to the drive (before its filter)
+    double      band_Hz            = 0; ///< > 0: every output signal band_limit()ed at this frequency
     unsigned long seed             = 1; ///< of that noise
   };
 
@@ -63,6 +81,14 @@ namespace rectify::diagnosis
   std::vector<double> spectral_threshold(const std::vector<double> &times,
                                          const std::vector<double> &values, double noise_sd);
 
+  /// The record's content below `cutoff_Hz`, exactly: the cosine series of
+  /// the record (mirrored at its ends, so no wrap-around jump) with every
+  /// term above the cutoff removed. Zero phase; the same operation on data
+  /// and model compares them within the band. Unchanged if not uniformly
+  /// sampled or the cutoff is at or above the Nyquist frequency.
+  std::vector<double> band_limit(const std::vector<double> &times, const std::vector<double> &values,
+                                 double cutoff_Hz);
+
   /// A measured periodic drive without its noise: a least-squares Fourier
   /// series in the harmonics of `frequency_Hz` up to `max_harmonic`, each
   /// harmonic kept only if its amplitude stands above the universal
@@ -82,6 +108,12 @@ namespace rectify::diagnosis
   /// frequency).
   system::Drive measured_drive(const MeasuredRun &run, double frequency_Hz,
                                double extra_noise_sd = 0, unsigned long seed = 1);
+  /// The same drive with `lead_cycles` cycles before t = 0 for a start
+  /// other than rest: from 0 it rises (raised cosine, one cycle) to the
+  /// drive's first value and holds it (steady), or to the record's first
+  /// cycle repeated (periodic).
+  system::Drive measured_drive(const MeasuredRun &run, double frequency_Hz, double extra_noise_sd,
+                               unsigned long seed, StartState start, double lead_cycles);
 
   /// Simulates `run` with parameters `p` and returns every signal of
   /// signal_columns() that the run has, at its sample times. Throws
@@ -94,5 +126,6 @@ namespace rectify::diagnosis
   /// signal of signal_columns() (actuator signals only when loaded).
   Signals simulate_drive(const system::SystemParameters &p, const system::ValveMaps &map,
                          const system::Drive &drive, system::Scenario scenario,
-                         const std::vector<double> &times, double relative_tolerance);
+                         const std::vector<double> &times, double relative_tolerance,
+                         double t_start = 0.0);
 } // namespace rectify::diagnosis

@@ -66,6 +66,29 @@ namespace rectify::diagnosis
     double phase(double t, double f) { return t * f - std::floor(t * f); }
   } // namespace
 
+  double drive_phase_at_start(const MeasuredRun &run, double f)
+  {
+    // the drive's fundamental: c + a cos(w t) + b sin(w t) = c - A cos(w t + phi)
+    const auto  &d = run.signal(run.drive_column());
+    const double w = 2.0 * std::numbers::pi * f;
+    const double t_cycles = std::floor(run.duration_s() * f) / f; // whole cycles
+    double       a = 0, b = 0;
+    std::size_t  n = 0;
+    for (std::size_t i = 0; i < d.size(); ++i)
+      {
+        const double t = run.time_s[i] - run.time_s.front();
+        if (t >= t_cycles && n > 0)
+          break;
+        a += d[i] * std::cos(w * t);
+        b += d[i] * std::sin(w * t);
+        ++n;
+      }
+    if (n == 0 || (a == 0 && b == 0))
+      return 0.0;
+    const double phi = std::atan2(b, -a);
+    return phase(phi / (2.0 * std::numbers::pi), 1.0);
+  }
+
   std::map<std::string, double> signal_scales(const MeasuredRun &run)
   {
     std::map<std::string, double> s;
@@ -151,15 +174,30 @@ namespace rectify::diagnosis
     return r;
   }
 
+  void append_residuals(const MeasuredRun &run, const Signals &model,
+                        const std::map<std::string, double> &scales, std::size_t from, std::size_t to,
+                        std::vector<double> &out)
+  {
+    for (const auto &[name, values] : model)
+      {
+        const auto  &data  = run.signal(name);
+        const double scale = scales.at(name);
+        const auto   end   = std::min({to, values.size(), data.size()});
+        for (std::size_t i = from; i < end; ++i)
+          out.push_back((values[i] - data[i]) / scale);
+      }
+  }
+
   std::map<std::string, double> residual_norms(const MeasuredRun &run, const Signals &model,
-                                               const std::map<std::string, double> &scales)
+                                               const std::map<std::string, double> &scales,
+                                               std::size_t from)
   {
     std::map<std::string, double> out;
     double                        total = 0;
     for (const auto &[name, values] : model)
       {
         const Signals one{{name, values}};
-        const auto    r = squared_residual(run, one, scales, 0, values.size());
+        const auto    r = squared_residual(run, one, scales, from, values.size());
         out[name]       = std::sqrt(r.sum / static_cast<double>(std::max<std::size_t>(r.n, 1)));
         total += out[name] * out[name];
       }
@@ -174,12 +212,13 @@ namespace rectify::diagnosis
     const auto it = model.find(signal);
     if (it == model.end())
       return 0;
-    const auto &data = run.signal(signal);
-    double      sum = 0;
-    std::size_t n   = 0;
+    const auto  &data   = run.signal(signal);
+    const double phase0 = drive_phase_at_start(run, f);
+    double       sum    = 0;
+    std::size_t  n      = 0;
     for (std::size_t i = 0; i < it->second.size(); ++i)
       {
-        const bool stroke = phase(run.time_s[i] - run.time_s.front(), f) < 0.5;
+        const bool stroke = phase(run.time_s[i] - run.time_s.front() + phase0 / f, f) < 0.5;
         if (stroke != (half == "pressurising"))
           continue;
         const double e = (it->second[i] - data[i]) / scales.at(signal);
@@ -204,6 +243,7 @@ namespace rectify::diagnosis
         }
     const double t0 = run.time_s.front(), T = 1.0 / f;
     const double duration = run.time_s.back() - t0;
+    const double phase0   = drive_phase_at_start(run, f);
     const auto   n_cycles = static_cast<std::size_t>(std::floor(duration / T + 1e-9));
 
     for (const auto &[name, values] : model)
@@ -218,7 +258,7 @@ namespace rectify::diagnosis
           {
             const double t  = run.time_s[i] - t0;
             const double e  = values[i] - data[i];
-            const int    h  = phase(t, f) < 0.5 ? 0 : 1;
+            const int    h  = phase(t + phase0 / f, f) < 0.5 ? 0 : 1;
             const int    th = std::min(2, static_cast<int>(3.0 * t / std::max(duration, 1e-300)));
             e_half[h] += e * e;
             ++n_half[h];

@@ -32,6 +32,12 @@ namespace rectify::diagnosis
   double dominant_frequency(const std::vector<double> &times, const std::vector<double> &values,
                             double f_low_Hz, double f_high_Hz);
 
+  /// The pumping cycle's phase in [0, 1) at the record's first sample: 0 at
+  /// the drive's minimum (the fundamental's), 0.5 at its maximum. A record
+  /// that starts mid-operation starts anywhere in the cycle; the
+  /// pressurising half is phase [0, 0.5).
+  double drive_phase_at_start(const MeasuredRun &run, double frequency_Hz);
+
   /// Sum of squared normalised residuals over samples [from, to) of every
   /// signal in `model`, and the number of terms.
   struct SquaredResidual
@@ -43,10 +49,17 @@ namespace rectify::diagnosis
                                    const std::map<std::string, double> &scales, std::size_t from,
                                    std::size_t to);
 
-  /// Normalised RMS residual per signal over the whole record, and "overall"
-  /// (the RMS over signals).
+  /// The normalised residuals themselves over samples [from, to), signal by
+  /// signal, appended to `out`.
+  void append_residuals(const MeasuredRun &run, const Signals &model,
+                        const std::map<std::string, double> &scales, std::size_t from, std::size_t to,
+                        std::vector<double> &out);
+
+  /// Normalised RMS residual per signal from sample `from` to the end of the
+  /// record, and "overall" (the RMS over signals).
   std::map<std::string, double> residual_norms(const MeasuredRun &run, const Signals &model,
-                                               const std::map<std::string, double> &scales);
+                                               const std::map<std::string, double> &scales,
+                                               std::size_t from = 0);
 
   /// One run's residual described: numbers (json) and sentences.
   struct Localisation

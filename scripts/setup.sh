@@ -19,6 +19,7 @@ packages=(
   libgtest-dev           # tests
   gnuplot-nox            # plots (PNG and SVG)
   python3                # scripts/chapter5_numbers.py (the reference run's comparison table)
+  python3-numpy python3-scipy  # bench/foreign: the independent test bench of the diagnosis (issue 17)
   libopenblas0-pthread   # fast BLAS for the sparse direct solves of the FE stages
 )
 missing=()

@@ -259,6 +259,37 @@ namespace rectify::system
     }
   } // namespace
 
+  /// [uncertain] "table.key" = [lower, upper]: a real parameter of the
+  /// model, 0 < lower < upper, its own value inside (a fit starts there).
+  static void read_uncertain(const CaseFile &f, SystemParameters &p)
+  {
+    for (const std::string &name : f.keys("uncertain"))
+      {
+        const auto where = f.where("uncertain", "\"" + name + "\"");
+        const auto dot   = name.find('.');
+        if (dot == std::string::npos)
+          throw InputError(where + ": name a parameter as \"table.key\", e.g. \"cylinder.wetted_length_m\"");
+        UncertainParameter u{name.substr(0, dot), name.substr(dot + 1), 0, 0};
+        double *field = p.real_field(u.table, u.key);
+        if (field == nullptr)
+          throw InputError(where + ": no real parameter [" + u.table + "] " + u.key + " in the model");
+        if (name == "transducer.piezomagnetic_coefficient_m_per_A")
+          throw InputError(where + ": the drive's force gain is always fitted (rectify diagnose --gain-range)");
+        const auto range = f.reals("uncertain", name, {}, Bounds::positive());
+        if (range.size() != 2 || !(range[0] < range[1]))
+          throw InputError(where + ": expected [lower, upper] with 0 < lower < upper");
+        if (!(*field >= range[0] && *field <= range[1]))
+          throw InputError(where + " = [" + format_number(range[0]) + ", " + format_number(range[1]) +
+                           "]: the case's own value " + format_number(*field) + " lies outside");
+        for (const auto &other : p.uncertain)
+          if (other.name() == name)
+            throw InputError(where + ": given twice");
+        u.lower = range[0];
+        u.upper = range[1];
+        p.uncertain.push_back(u);
+      }
+  }
+
   SystemParameters SystemParameters::from_case(const CaseFile &f, bool read_map_sets)
   {
     SystemParameters p;
@@ -275,7 +306,63 @@ namespace rectify::system
     p.solver      = SolverParameters::from_case(f);
     if (read_map_sets)
       apply_map_sets(f, p);
+    read_uncertain(f, p);
     return p;
+  }
+
+  double *SystemParameters::real_field(const std::string &table, const std::string &key)
+  {
+    const std::pair<const char *, double *> fields[] = {
+      {"fluid.density_kg_per_m3", &fluid.density_kg_per_m3},
+      {"fluid.viscosity_Pa_s", &fluid.viscosity_Pa_s},
+      {"fluid.bulk_modulus_Pa", &fluid.bulk_modulus_Pa},
+      {"fluid.entrained_air_fraction", &fluid.entrained_air_fraction},
+      {"fluid.gas_heat_capacity_ratio", &fluid.gas_heat_capacity_ratio},
+      {"fluid.bias_pressure_Pa", &fluid.bias_pressure_Pa},
+      {"fluid.free_air_fraction", &fluid.free_air_fraction},
+      {"transducer.rod_youngs_modulus_Pa", &transducer.rod_youngs_modulus_Pa},
+      {"transducer.rod_area_m2", &transducer.rod_area_m2},
+      {"transducer.rod_length_m", &transducer.rod_length_m},
+      {"transducer.diaphragm_stiffness_N_per_m", &transducer.diaphragm_stiffness_N_per_m},
+      {"transducer.effective_mass_kg", &transducer.effective_mass_kg},
+      {"transducer.damping_ratio", &transducer.damping_ratio},
+      {"transducer.coil_turns", &transducer.coil_turns},
+      {"transducer.piezomagnetic_coefficient_m_per_A", &transducer.piezomagnetic_coefficient_m_per_A},
+      {"transducer.coil_resistance_ohm", &transducer.coil_resistance_ohm},
+      {"transducer.coil_inductance_H", &transducer.coil_inductance_H},
+      {"chamber.height_m", &chamber.height_m},
+      {"chamber.piston_area_m2", &chamber.piston_area_m2},
+      {"chamber.fluid_damping_ratio", &chamber.fluid_damping_ratio},
+      {"reed.stiffness_N_per_m", &reed.stiffness_N_per_m},
+      {"reed.effective_mass_kg", &reed.effective_mass_kg},
+      {"reed.damping_ratio", &reed.damping_ratio},
+      {"reed.pressure_area_m2", &reed.pressure_area_m2},
+      {"reed.restitution", &reed.restitution},
+      {"reed.second_mode_frequency_Hz", &reed.second_mode_frequency_Hz},
+      {"valves.ideal_open_resistance_Pa_s_per_m3", &valves.ideal_open_resistance_Pa_s_per_m3},
+      {"valves.leak_resistance_Pa_s_per_m3", &valves.leak_resistance_Pa_s_per_m3},
+      {"valves.orifice_discharge_coefficient", &valves.orifice_discharge_coefficient},
+      {"valves.orifice_perimeter_m", &valves.orifice_perimeter_m},
+      {"lines.diameter_m", &lines.diameter_m},
+      {"lines.length_m", &lines.length_m},
+      {"lines.outlet_inertance_Pa_s2_per_m3", &lines.outlet_inertance_Pa_s2_per_m3},
+      {"cylinder.piston_area_m2", &cylinder.piston_area_m2},
+      {"cylinder.wetted_length_m", &cylinder.wetted_length_m},
+      {"cylinder.high_side_fraction", &cylinder.high_side_fraction},
+      {"cylinder.seal_compliance_m3_per_Pa", &cylinder.seal_compliance_m3_per_Pa},
+      {"accumulator.gas_volume_m3", &accumulator.gas_volume_m3},
+      {"load.mass_kg", &load.mass_kg},
+      {"load.damping_N_s_per_m", &load.damping_N_s_per_m},
+      {"load.stiffness_N_per_m", &load.stiffness_N_per_m},
+      {"load.coulomb_friction_N", &load.coulomb_friction_N},
+      {"load.friction_velocity_scale_m_per_s", &load.friction_velocity_scale_m_per_s},
+      {"drive.current_pp_A", &drive.current_pp_A},
+      {"drive.current_bias_A", &drive.current_bias_A}};
+    const std::string name = table + "." + key;
+    for (const auto &[n, field] : fields)
+      if (name == n)
+        return field;
+    return nullptr;
   }
 
   void use_map_set(SystemParameters &p, const CaseFile &f, const std::string &dir)
@@ -312,7 +399,8 @@ namespace rectify::system
         {"entrained_air_fraction", fluid.entrained_air_fraction},
         {"gas_heat_capacity_ratio", fluid.gas_heat_capacity_ratio},
         {"bias_pressure_Pa", fluid.bias_pressure_Pa},
-        {"free_air_fraction", fluid.free_air_fraction}}},
+        {"free_air_fraction", fluid.free_air_fraction},
+        {"free_air_law", fluid.free_air_law}}},
       {"transducer",
        {{"rod_youngs_modulus_Pa", transducer.rod_youngs_modulus_Pa},
         {"rod_area_m2", transducer.rod_area_m2},

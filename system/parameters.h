@@ -152,6 +152,17 @@ namespace rectify::system
     static SolverParameters from_case(const CaseFile &file);
   };
 
+  /// A baseline parameter the case marks as uncertain: in its [uncertain]
+  /// table, "table.key" = [lower, upper] (the thesis's gaps: lines, cylinder,
+  /// accumulator, ...). Simulations use the key's own value; the diagnosis
+  /// fits it inside these bounds with every candidate (docs/diagnosis.md).
+  struct UncertainParameter
+  {
+    std::string table, key;
+    double      lower = 0, upper = 0;
+    std::string name() const { return table + "." + key; }
+  };
+
   struct SystemParameters
   {
     FluidParameters       fluid;
@@ -165,6 +176,15 @@ namespace rectify::system
     LoadParameters        load;
     DriveParameters       drive;
     SolverParameters      solver;
+    std::vector<UncertainParameter> uncertain; ///< [uncertain]; empty if none
+
+    /// The real-valued parameter [table] key (a pointer into this struct), or
+    /// nullptr if there is no such real parameter.
+    double *real_field(const std::string &table, const std::string &key);
+    double  real_value(const std::string &table, const std::string &key) const
+    {
+      return *const_cast<SystemParameters *>(this)->real_field(table, key);
+    }
 
     /// Reads every table; with map sets, checks each against the case's
     /// [geometry], [fluid] and [reed_material] and takes k_r and m_r from it.

@@ -269,7 +269,7 @@ TEST(Diagnosis, DominantFrequencyFindsARingingBetweenHarmonics)
 
 TEST(Diagnosis, EffectLibraryNamesBoundsAndKeys)
 {
-  const std::vector<std::string> expected{"entrained_air",  "outlet_compliance", "valve_leakage",
+  const std::vector<std::string> expected{"entrained_air",  "entrained_air_constant_modulus", "outlet_compliance", "valve_leakage",
                                           "orifice_flow",   "line_inertance",    "coil_dynamics",
                                           "piston_friction", "reed_second_mode"};
   ASSERT_EQ(effect_library().size(), expected.size());

@@ -12,7 +12,7 @@ namespace rectify::diagnosis
       "oil column's",
       "outlet pressure rises more slowly from cycle to cycle and ripples less; the chamber is "
       "unaffected while the outlet valve is shut",
-      std::vector<EffectParameter>{{"cylinder", "seal_compliance_m3_per_Pa", 3e-14, 3e-10, true,
+      std::vector<EffectParameter>{{"cylinder", "seal_compliance_m3_per_Pa", 1e-17, 3e-10, true,
                                     "extra high-side compliance"}},
       [](std::span<const double> v, system::SystemParameters &p) {
         p.cylinder.seal_compliance_m3_per_Pa = v[0];
