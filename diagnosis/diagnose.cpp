@@ -964,9 +964,9 @@ namespace rectify::diagnosis
         // held at this fit), and every candidate from there.
         Evaluator baseline_ev = Evaluator::make(base, map, runs, nullptr, options, cores, &current);
         fitted[0]             = fit(baseline_ev, predictions[0]);
-        int checks            = 0;
-        rr.baseline_check =
-          check_identifiability(baseline_ev, fitted[0], options.identifiability_sd, checks);
+        int checks = 0;
+        if (!fitted[0].failed && fitted[0].u.size() == baseline_ev.dimension())
+          rr.baseline_check = check_identifiability(baseline_ev, fitted[0], options.identifiability_sd, checks);
         fitted[0].evaluations += checks;
         if (baseline_ev.free.size() + 1 < fitted[0].u.size())
           {

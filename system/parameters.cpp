@@ -125,7 +125,7 @@ namespace rectify::system
     p.leak_resistance_Pa_s_per_m3 =
       f.real(t, "leak_resistance_Pa_s_per_m3", p.leak_resistance_Pa_s_per_m3, non_negative);
     p.orifice_discharge_coefficient = f.real(t, "orifice_discharge_coefficient",
-                                             p.orifice_discharge_coefficient, Bounds::closed(0.0, 1.0));
+                                             p.orifice_discharge_coefficient, Bounds::closed(0.0, 10.0));
     p.orifice_perimeter_m = f.real(t, "orifice_perimeter_m", p.orifice_perimeter_m, non_negative);
     return p;
   }

@@ -5,7 +5,8 @@
 # distorted drive, the baseline's uncertain parameters drawn at random)
 # hides a leak of 4e11 Pa s/m^3 in a record that starts mid-operation;
 # `rectify diagnose`, run as a user would (reference case, all candidates),
-# must name valve_leakage with R within 20 % and say how much it explains.
+# must name valve_leakage with R within 20 %, say how much it explains, and not
+# simulate the record from rest (steady or periodic: both estimate its state).
 #   tests/foreign_bench.sh RECTIFY SOURCE_DIR SCRATCH_DIR
 set -euo pipefail
 rectify=$1 src=$2 out=$3
@@ -26,6 +27,6 @@ print("named", s["effect"], "R", R, "truth", t["value"], "verdict", s["verdict"]
 print("start", s["localisation"][0]["start"], "(bench:", t["start"] + ")")
 ok = s["effect"] == "valve_leakage" and R is not None and abs(R / t["value"] - 1) < 0.2
 ok = ok and s["verdict"] in ("explained", "partly explained") and s["explained_fraction"] > 0.8
-ok = ok and s["localisation"][0]["start"] == "periodic"
+ok = ok and s["localisation"][0]["start"] != "rest"  # the record starts mid-operation
 sys.exit(0 if ok else 1)
 PY

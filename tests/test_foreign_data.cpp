@@ -198,3 +198,74 @@ TEST(ForeignData, ARecordFromMidOperationStartsFromItsPeriodicState)
   // the drive's phase at the record's start: a third of a cycle in
   EXPECT_NEAR(drive_phase_at_start(runs[0].run, 100), 67.0 / 200.0, 0.01);
 }
+
+namespace
+{
+  /// `rectify diagnose ARGS --data DIR/data/data.csv --out DIR/d`: summary.json.
+  nlohmann::json diagnose_json(const std::filesystem::path &dir, const std::string &args)
+  {
+    const auto r = rectify_cli("diagnose --data " + (dir / "data" / "data.csv").string() + " " + args +
+                               " --out " + (dir / "d").string());
+    if (r.exit_code != 0)
+      {
+        ADD_FAILURE() << r.output;
+        return {};
+      }
+    return nlohmann::json::parse(std::ifstream(dir / "d" / "summary.json"));
+  }
+} // namespace
+
+// A rig whose oil column is 2.4x the case's (a baseline gap, not an effect):
+// the calibration finds it (only the product of the cylinder's area and oil
+// column is determined in a no-flow run: one of the two is held) and the
+// verdict is "no missing effect" where the uncalibrated model was far off.
+TEST(ForeignData, AnUncertainBaselineIsCalibratedNotMistakenForAnEffect)
+{
+  const auto  dir  = scratch("foreign_baseline");
+  std::string text = reference_text();
+  const auto  at   = text.find("wetted_length_m = 0.0254");
+  ASSERT_NE(at, std::string::npos);
+  text.replace(at, std::string("wetted_length_m = 0.0254").size(), "wetted_length_m = 0.061");
+  {
+    std::ofstream out(dir / "rig.toml");
+    out << text;
+  }
+  std::filesystem::copy_file(reference_case_path().parent_path() / "thesis-resistance.csv",
+                             dir / "thesis-resistance.csv");
+  auto r = rectify_cli("synth --case " + (dir / "rig.toml").string() +
+                       " --effect none --noise 0.01 --seed 5 --frequency 100 --cycles 12 --out " +
+                       (dir / "data").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto s = diagnose_json(dir, "--effects valve_leakage outlet_compliance entrained_air");
+  ASSERT_FALSE(s.is_null());
+  EXPECT_EQ(s["effect"], "none") << s["decision"];
+  EXPECT_EQ(s["verdict"], "no missing effect") << s["verdict_sentence"];
+  const double volume = s["baseline"]["cylinder.wetted_length_m"].get<double>() *
+                        s["baseline"]["cylinder.piston_area_m2"].get<double>();
+  EXPECT_NEAR(volume, 0.061 * 1.29032e-4, 0.05 * 0.061 * 1.29032e-4);
+  EXPECT_GT(s["residual_before"]["overall"].get<double>(), 10.0); // the case's own baseline was far off
+  int held = 0;
+  for (const auto &b : s["baseline_fit"])
+    held += b["identifiable"].get<bool>() ? 0 : 1;
+  EXPECT_GE(held, 1);
+}
+
+// When the library has nothing that fits (a hidden leak, candidates that
+// cannot make one), the verdict says so and says where the gap is, instead
+// of "explains".
+TEST(ForeignData, TheVerdictSaysBeyondTheLibraryWhenNothingFits)
+{
+  const auto dir = scratch("foreign_beyond");
+  auto       r   = rectify_cli("synth --effect valve_leakage --param leak_resistance_Pa_s_per_m3=3e11 --noise 0.01 "
+                               "--seed 9 --frequency 100 --cycles 8 --out " + (dir / "data").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto s = diagnose_json(dir, "--effects orifice_flow reed_second_mode");
+  ASSERT_FALSE(s.is_null());
+  EXPECT_EQ(s["effect"], "none") << s["decision"];
+  EXPECT_EQ(s["verdict"], "beyond the library") << s["verdict_sentence"];
+  EXPECT_NE(s["verdict_sentence"].get<std::string>().find("noise units remain"), std::string::npos);
+  // and where: a leak's gap is in the pressures (the chamber's refill here)
+  EXPECT_NE(s["verdict_sentence"].get<std::string>().find("Largest remaining residual: chamber pressure"),
+            std::string::npos)
+    << s["verdict_sentence"];
+}

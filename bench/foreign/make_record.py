@@ -145,9 +145,14 @@ def main():
             sensor[c] = {"bandwidth_Hz": fc}
         recorded[c] = x
     outliers = []
+    # each sensor's resolution: its noise never falls below this, however
+    # little its signal moves (a seated valve, a pressure that has settled)
+    floor = {"current_A": 2e-3, "voltage_V": 4e-3, "outlet_pressure_Pa": 2e3, "chamber_pressure_Pa": 2e3,
+             "outlet_valve_m": 5e-8, "strain": 1e-7, "actuator_position_m": 1e-7,
+             "actuator_velocity_m_per_s": 1e-4}
     for c, x in recorded.items():
         rms = float(np.std(x))
-        sd = noise * rms
+        sd = max(noise * rms, floor[c])
         e = rng.normal(0, sd, len(x))
         if sensors:
             rho = rng.uniform(0.7, 0.95)
@@ -163,7 +168,7 @@ def main():
         for _ in range(int(rng.integers(1, 4))):
             c = str(rng.choice(columns[:3]))
             k = int(rng.integers(len(t_rec_axis) // 10, len(t_rec_axis)))
-            size = 10 ** rng.uniform(1, 3) * noise * float(np.std(recorded[c])) * rng.choice([-1, 1])
+            size = 10 ** rng.uniform(1, 3) * max(noise * float(np.std(recorded[c])), floor[c]) * rng.choice([-1, 1])
             recorded[c][k] += size
             outliers.append({"column": c, "row": k + 1, "time_s": float(t_rec_axis[k] - t_rec), "size": float(size)})
 
