@@ -282,11 +282,14 @@ namespace rectify::app
           const std::string base = "overlay-" + std::to_string(r + 1);
           table.write(out / (base + ".csv"));
           files.push_back(base + ".csv");
+          // the data as compared: within the band (diagnose.h, `harmonics`)
+          const std::string data_label =
+            result.runs[r].band_Hz > 0 ? "data (to " + format_number(std::round(result.runs[r].band_Hz)) + " Hz)" : "data";
           std::vector<PlotPanel> panels;
           const std::size_t stride = std::max<std::size_t>(1, rc.run.time_s.size() / 8000);
           for (const auto &s : sigs)
             panels.push_back({pretty_signal(s) + " - " + rc.run.source, "time [s]", pretty_signal(s), false, false,
-                              {{out / (base + ".csv"), "time_s", "data_" + s, "data", "points pt 7 ps 0.3", 1, display_scale(s), stride},
+                              {{out / (base + ".csv"), "time_s", "data_" + s, data_label, "points pt 7 ps 0.3", 1, display_scale(s), stride},
                                {out / (base + ".csv"), "time_s", "before_" + s, "model before", "lines", 1, display_scale(s), stride},
                                {out / (base + ".csv"), "time_s", "after_" + s, "model with " + (effects_named.empty() ? std::string("no effect (refit)") : effects_named), "lines", 1, display_scale(s), stride}}});
           if (render_plot(out / base, panels))

@@ -201,20 +201,11 @@ namespace rectify::diagnosis
       /// Sum of squared normalised residuals over the training samples.
       SquaredResidual training(const std::vector<double> &u) const
       {
-        const auto                   p = parameters(u);
-        std::vector<SquaredResidual> per_run(runs.size());
-        parallel_for(runs.size(), run_threads, [&](std::size_t i) {
-          const auto &rc = runs[i];
-          auto        so = rc.simulation(options.relative_tolerance);
-          so.n_samples   = samples(rc);
-          const auto model = simulate_run(p, map, rc.run, rc.setup, so);
-          per_run[i]       = squared_residual(rc.run, model, rc.scales, rc.n_skip, so.n_samples);
-        });
         SquaredResidual total;
-        for (const auto &r : per_run)
+        for (double e : residual_vector(u))
           {
-            total.sum += r.sum;
-            total.n += r.n;
+            total.sum += e * e;
+            ++total.n;
           }
         return total;
       }
@@ -529,41 +520,6 @@ namespace rectify::diagnosis
     return so;
   }
 
-  double cycle_scatter(const std::vector<double> &t, const std::vector<double> &v, double f)
-  {
-    const std::size_t n = v.size();
-    if (n < 16 || !uniformly_sampled(t) || !(f > 0))
-      return 0.0;
-    const double dt     = (t.back() - t.front()) / static_cast<double>(n - 1);
-    const double per    = 1.0 / (f * dt);
-    const auto   period = static_cast<std::size_t>(std::llround(per));
-    if (period < 4 || std::abs(per - static_cast<double>(period)) > 0.01 * per)
-      return 0.0;
-    const std::size_t cycles = n / period, first = cycles / 2;
-    const std::size_t m      = cycles - first; // cycles used
-    if (m < 5)
-      return 0.0;
-    // per phase, a quadratic in the cycle index (a build-up that has not
-    // settled, a drift) fitted by least squares; the scatter about it
-    Eigen::MatrixXd A(static_cast<Eigen::Index>(m), 3);
-    for (std::size_t c = 0; c < m; ++c)
-      {
-        const double x = static_cast<double>(c) - 0.5 * static_cast<double>(m - 1);
-        A(static_cast<Eigen::Index>(c), 0) = 1.0;
-        A(static_cast<Eigen::Index>(c), 1) = x;
-        A(static_cast<Eigen::Index>(c), 2) = x * x;
-      }
-    const auto      qr  = A.colPivHouseholderQr();
-    Eigen::VectorXd y(static_cast<Eigen::Index>(m));
-    double          sum = 0;
-    for (std::size_t j = 0; j < period; ++j)
-      {
-        for (std::size_t c = 0; c < m; ++c)
-          y(static_cast<Eigen::Index>(c)) = v[(first + c) * period + j];
-        sum += (y - A * qr.solve(y)).squaredNorm();
-      }
-    return std::sqrt(sum / static_cast<double>(period * (m - 3)));
-  }
 
   RunCase make_run_case(MeasuredRun run, system::Scenario scenario, double frequency_Hz,
                         double training_fraction, bool repair_outliers, double harmonics)
@@ -672,10 +628,10 @@ namespace rectify::diagnosis
     if (tried.size() > 1)
       parallel_for(runs.size() * tried.size(), threads, [&](std::size_t job) {
         const std::size_t r = job / tried.size(), k = job % tried.size();
-        RunCase           rc = runs[r];
-        rc.start             = tried[k];
-        rc.lead_cycles       = lead(tried[k]);
-        auto       so        = rc.simulation(options.relative_tolerance);
+        const RunCase    &rc = runs[r];
+        auto              so = rc.simulation(options.relative_tolerance);
+        so.start             = tried[k];
+        so.lead_cycles       = lead(tried[k]);
         const auto &t        = rc.run.time_s;
         const double dt      = (t.back() - t.front()) / static_cast<double>(t.size() - 1);
         so.n_samples = std::min(t.size(), static_cast<std::size_t>(2.0 / (rc.setup.frequency_Hz * dt)) + 1);

@@ -185,14 +185,6 @@ namespace rectify::diagnosis
   RunCase make_run_case(MeasuredRun run, system::Scenario scenario, double frequency_Hz,
                         double training_fraction, bool repair_outliers = true, double harmonics = 0);
 
-  /// The scatter of a signal from cycle to cycle: per phase of the cycle
-  /// (uniform sampling, a whole number of samples per cycle to 1 %), a
-  /// quadratic in the cycle index through its values in the cycles of the
-  /// record's second half (at least 5; so a slow build-up or drift is not
-  /// counted), the residuals' RMS (for the quadratic's three parameters). What the record does not repeat:
-  /// noise of any colour, flutter. 0 if it cannot be measured.
-  double cycle_scatter(const std::vector<double> &times, const std::vector<double> &values,
-                       double frequency_Hz);
 
   /// Sets each run's start state (options.start; "auto": the best of the
   /// three over the record's first two cycles with the model `base`) and

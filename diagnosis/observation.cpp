@@ -78,33 +78,44 @@ namespace rectify::diagnosis
     return out;
   }
 
+  namespace
+  {
+    /// The record's cosine series, filtered: the DFT of its even extension
+    /// (length m = 2 (n - 1): real, no wrap-around jump), each term k in
+    /// [0, m) kept where keep(k, m, |X_k|), transformed back to n values.
+    template <typename Keep>
+    std::vector<double> filter_cosine_series(const std::vector<double> &v, const Keep &keep)
+    {
+      const std::size_t   n = v.size(), m = 2 * (n - 1);
+      std::vector<double> y(m);
+      for (std::size_t i = 0; i < n; ++i)
+        y[i] = v[i];
+      for (std::size_t i = 1; i + 1 < n; ++i)
+        y[m - i] = v[i];
+      Eigen::FFT<double>                fft;
+      std::vector<std::complex<double>> spectrum;
+      fft.fwd(spectrum, y);
+      for (std::size_t k = 0; k < spectrum.size(); ++k)
+        if (!keep(k, m, std::abs(spectrum[k])))
+          spectrum[k] = 0.0;
+      std::vector<double> back;
+      fft.inv(back, spectrum);
+      back.resize(n);
+      return back;
+    }
+  } // namespace
+
   std::vector<double> spectral_threshold(const std::vector<double> &t, const std::vector<double> &v,
                                          double noise_sd)
   {
     const std::size_t n = v.size();
     if (n < 8 || !(noise_sd > 0) || !uniformly_sampled(t))
       return v;
-    // even extension of length m = 2 (n - 1): its DFT is real, the cosine
-    // series of the record; white noise of sd s gives each coefficient
-    // (but the first and the last) an sd of s sqrt(m)
-    const std::size_t   m = 2 * (n - 1);
-    std::vector<double> y(m);
-    for (std::size_t i = 0; i < n; ++i)
-      y[i] = v[i];
-    for (std::size_t i = 1; i + 1 < n; ++i)
-      y[m - i] = v[i];
-    Eigen::FFT<double>                fft;
-    std::vector<std::complex<double>> spectrum;
-    fft.fwd(spectrum, y);
-    const double threshold =
-      noise_sd * std::sqrt(static_cast<double>(m)) * std::sqrt(2.0 * std::log(static_cast<double>(n)));
-    for (std::size_t k = 1; k < spectrum.size(); ++k) // the mean is always kept
-      if (std::abs(spectrum[k]) < threshold)
-        spectrum[k] = 0.0;
-    std::vector<double> back;
-    fft.inv(back, spectrum);
-    back.resize(n);
-    return back;
+    // white noise of sd s gives each coefficient (but the first and the
+    // last) an sd of s sqrt(m); the mean is always kept
+    const double threshold = noise_sd * std::sqrt(2.0 * static_cast<double>(n - 1)) *
+                             std::sqrt(2.0 * std::log(static_cast<double>(n)));
+    return filter_cosine_series(v, [&](std::size_t k, std::size_t, double a) { return k == 0 || a >= threshold; });
   }
 
   std::vector<double> band_limit(const std::vector<double> &t, const std::vector<double> &v, double cutoff_Hz)
@@ -115,26 +126,10 @@ namespace rectify::diagnosis
     const double dt = (t.back() - t.front()) / static_cast<double>(n - 1);
     if (cutoff_Hz * dt >= 0.5)
       return v;
-    const std::size_t   m = 2 * (n - 1); // the even extension, as in spectral_threshold
-    std::vector<double> y(m);
-    for (std::size_t i = 0; i < n; ++i)
-      y[i] = v[i];
-    for (std::size_t i = 1; i + 1 < n; ++i)
-      y[m - i] = v[i];
-    Eigen::FFT<double>                fft;
-    std::vector<std::complex<double>> spectrum;
-    fft.fwd(spectrum, y);
-    const double df = 1.0 / (static_cast<double>(m) * dt);
-    for (std::size_t k = 0; k < spectrum.size(); ++k)
-      {
-        const double f = static_cast<double>(std::min(k, m - k)) * df;
-        if (f > cutoff_Hz)
-          spectrum[k] = 0.0;
-      }
-    std::vector<double> back;
-    fft.inv(back, spectrum);
-    back.resize(n);
-    return back;
+    const double df = 1.0 / (2.0 * static_cast<double>(n - 1) * dt);
+    return filter_cosine_series(v, [&](std::size_t k, std::size_t m, double) {
+      return static_cast<double>(std::min(k, m - k)) * df <= cutoff_Hz;
+    });
   }
 
   std::vector<double> denoise_periodic(const std::vector<double> &t, const std::vector<double> &v,

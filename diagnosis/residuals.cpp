@@ -4,6 +4,7 @@
 #include <cmath>
 #include <complex>
 #include <numbers>
+#include <Eigen/Dense>
 #include <unsupported/Eigen/FFT>
 
 #include "common/case_file.h"
@@ -116,6 +117,42 @@ namespace rectify::diagnosis
     for (double &x : d)
       x = std::abs(x - m);
     return 1.4826 * median(d) / std::sqrt(6.0);
+  }
+
+  double cycle_scatter(const std::vector<double> &t, const std::vector<double> &v, double f)
+  {
+    const std::size_t n = v.size();
+    if (n < 16 || !uniformly_sampled(t) || !(f > 0))
+      return 0.0;
+    const double dt     = (t.back() - t.front()) / static_cast<double>(n - 1);
+    const double per    = 1.0 / (f * dt);
+    const auto   period = static_cast<std::size_t>(std::llround(per));
+    if (period < 4 || std::abs(per - static_cast<double>(period)) > 0.01 * per)
+      return 0.0;
+    const std::size_t cycles = n / period, first = cycles / 2;
+    const std::size_t m      = cycles - first; // cycles used
+    if (m < 5)
+      return 0.0;
+    // per phase, a quadratic in the cycle index (a build-up that has not
+    // settled, a drift) fitted by least squares; the scatter about it
+    Eigen::MatrixXd A(static_cast<Eigen::Index>(m), 3);
+    for (std::size_t c = 0; c < m; ++c)
+      {
+        const double x = static_cast<double>(c) - 0.5 * static_cast<double>(m - 1);
+        A(static_cast<Eigen::Index>(c), 0) = 1.0;
+        A(static_cast<Eigen::Index>(c), 1) = x;
+        A(static_cast<Eigen::Index>(c), 2) = x * x;
+      }
+    const auto      qr  = A.colPivHouseholderQr();
+    Eigen::VectorXd y(static_cast<Eigen::Index>(m));
+    double          sum = 0;
+    for (std::size_t j = 0; j < period; ++j)
+      {
+        for (std::size_t c = 0; c < m; ++c)
+          y(static_cast<Eigen::Index>(c)) = v[(first + c) * period + j];
+        sum += (y - A * qr.solve(y)).squaredNorm();
+      }
+    return std::sqrt(sum / static_cast<double>(period * (m - 3)));
   }
 
   double dominant_frequency(const std::vector<double> &t, const std::vector<double> &v,

@@ -25,6 +25,15 @@ namespace rectify::diagnosis
   /// noise), robustly: 1.4826 median|d - median d| / sqrt(6).
   double white_noise_sd(const std::vector<double> &values);
 
+  /// The scatter of a signal from cycle to cycle: per phase of the cycle
+  /// (uniform sampling, a whole number of samples per cycle to 1 %), a
+  /// quadratic in the cycle index through its values in the cycles of the
+  /// record's second half (at least 5; so a slow build-up or drift is not
+  /// counted), the residuals' RMS (for the quadratic's three parameters). What the record does not repeat:
+  /// noise of any colour, flutter. 0 if it cannot be measured.
+  double cycle_scatter(const std::vector<double> &times, const std::vector<double> &values,
+                       double frequency_Hz);
+
   /// The frequency [Hz] of the largest spectral peak of uniformly sampled
   /// values in [f_low, f_high] (Hann window, zero-padded to 8x, the peak
   /// interpolated by a parabola through its log magnitudes): a ringing in a

@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -39,6 +41,20 @@ namespace rectify::test_support
     std::filesystem::remove_all(dir);
     std::filesystem::create_directories(dir);
     return dir;
+  }
+
+  /// `rectify diagnose --data DATA ARGS --out OUT`: OUT/summary.json, or
+  /// null (with the command's output as a test failure) if it fails.
+  inline nlohmann::json diagnose_summary(const std::filesystem::path &data, const std::string &args,
+                                         const std::filesystem::path &out)
+  {
+    const auto r = rectify_cli("diagnose --data " + data.string() + " " + args + " --out " + out.string());
+    if (r.exit_code != 0)
+      {
+        ADD_FAILURE() << r.output;
+        return {};
+      }
+    return nlohmann::json::parse(std::ifstream(out / "summary.json"));
   }
 
   inline std::string reference_text()

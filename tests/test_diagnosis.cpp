@@ -494,14 +494,7 @@ namespace
         ADD_FAILURE() << r.output;
         return {};
       }
-    r = rectify_cli("diagnose --data " + (dir / "data" / "data.csv").string() + " --effects " + effects +
-                    " --out " + (dir / "d").string());
-    if (r.exit_code != 0)
-      {
-        ADD_FAILURE() << r.output;
-        return {};
-      }
-    return nlohmann::json::parse(std::ifstream(dir / "d" / "summary.json"));
+    return diagnose_summary(dir / "data" / "data.csv", "--effects " + effects, dir / "d");
   }
 } // namespace
 

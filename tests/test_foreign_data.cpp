@@ -199,21 +199,6 @@ TEST(ForeignData, ARecordFromMidOperationStartsFromItsPeriodicState)
   EXPECT_NEAR(drive_phase_at_start(runs[0].run, 100), 67.0 / 200.0, 0.01);
 }
 
-namespace
-{
-  /// `rectify diagnose ARGS --data DIR/data/data.csv --out DIR/d`: summary.json.
-  nlohmann::json diagnose_json(const std::filesystem::path &dir, const std::string &args)
-  {
-    const auto r = rectify_cli("diagnose --data " + (dir / "data" / "data.csv").string() + " " + args +
-                               " --out " + (dir / "d").string());
-    if (r.exit_code != 0)
-      {
-        ADD_FAILURE() << r.output;
-        return {};
-      }
-    return nlohmann::json::parse(std::ifstream(dir / "d" / "summary.json"));
-  }
-} // namespace
 
 // A rig whose oil column is 2.4x the case's (a baseline gap, not an effect):
 // the calibration finds it (only the product of the cylinder's area and oil
@@ -236,7 +221,7 @@ TEST(ForeignData, AnUncertainBaselineIsCalibratedNotMistakenForAnEffect)
                        " --effect none --noise 0.01 --seed 5 --frequency 100 --cycles 12 --out " +
                        (dir / "data").string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  const auto s = diagnose_json(dir, "--effects valve_leakage outlet_compliance entrained_air");
+  const auto s = diagnose_summary(dir / "data" / "data.csv", "--effects valve_leakage outlet_compliance entrained_air", dir / "d");
   ASSERT_FALSE(s.is_null());
   EXPECT_EQ(s["effect"], "none") << s["decision"];
   EXPECT_EQ(s["verdict"], "no missing effect") << s["verdict_sentence"];
@@ -259,7 +244,7 @@ TEST(ForeignData, TheVerdictSaysBeyondTheLibraryWhenNothingFits)
   auto       r   = rectify_cli("synth --effect valve_leakage --param leak_resistance_Pa_s_per_m3=3e11 --noise 0.01 "
                                "--seed 9 --frequency 100 --cycles 8 --out " + (dir / "data").string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  const auto s = diagnose_json(dir, "--effects orifice_flow reed_second_mode");
+  const auto s = diagnose_summary(dir / "data" / "data.csv", "--effects orifice_flow reed_second_mode", dir / "d");
   ASSERT_FALSE(s.is_null());
   EXPECT_EQ(s["effect"], "none") << s["decision"];
   EXPECT_EQ(s["verdict"], "beyond the library") << s["verdict_sentence"];
