@@ -460,9 +460,10 @@ namespace rectify::app
       cmd->add_option("--threads", o->options.threads, "candidates fitted at once (0: all cores)");
       cmd->add_option("--rtol", o->options.relative_tolerance, "CVODE relative tolerance")->capture_default_str();
       cmd->add_option("--start", o->options.start,
-                      "where each record starts: auto (the best over its first two cycles), rest, steady "
-                      "(static state under its first drive value) or periodic (a run-in of its first cycle)")
-        ->check(CLI::IsMember({"auto", "rest", "steady", "periodic"}))
+                      "where each record starts: auto (the best over its first two cycles), rest, record "
+                      "(the state its first samples show), steady (static state under its first drive "
+                      "value) or periodic (a run-in of its first cycle)")
+        ->check(CLI::IsMember({"auto", "rest", "record", "steady", "periodic"}))
         ->capture_default_str();
       cmd->add_option("--lead-cycles", o->options.lead_cycles, "cycles of run-in before a periodic start")
         ->check(CLI::Range(1.0, 1000.0))

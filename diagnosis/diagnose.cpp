@@ -616,9 +616,13 @@ namespace rectify::diagnosis
                     std::vector<RunCase> &runs, const DiagnoseOptions &options, unsigned threads)
   {
     const auto lead = [&](StartState s) {
-      return s == StartState::rest ? 0.0 : s == StartState::steady ? 3.0 : options.lead_cycles;
+      return s == StartState::rest || s == StartState::record ? 0.0 :
+             s == StartState::steady                          ? 3.0 :
+                                                                options.lead_cycles;
     };
-    const std::vector<StartState> all{StartState::rest, StartState::steady, StartState::periodic};
+    // in this order of preference: a later one must fit 5 % better
+    const std::vector<StartState> all{StartState::rest, StartState::record, StartState::steady,
+                                      StartState::periodic};
     std::vector<StartState>       tried = all;
     if (options.start != "auto")
       tried = {start_state_from_string(options.start)};
@@ -653,12 +657,19 @@ namespace rectify::diagnosis
         rc.start_scores  = nlohmann::json::object();
         // the first tried (rest) unless another fits clearly better: a run
         // that starts at rest under a drive that starts at zero is also a
-        // steady start, within the drive's noise
+        // steady start, within the drive's noise. A run-in (steady,
+        // periodic) must beat the recorded state by 20 %: it assumes the
+        // history before the record, which the case's baseline judges here
+        // and a slow effect (a soft seal, free air, charging the high side
+        // over tens of cycles) would change, where the recorded state
+        // assumes nothing.
         for (std::size_t k = 0; k < tried.size(); ++k)
           {
             if (tried.size() > 1)
               rc.start_scores[to_string(tried[k])] = score[r][k];
-            if (score[r][k] < 0.95 * score[r][best])
+            const bool   run_in = tried[k] == StartState::steady || tried[k] == StartState::periodic;
+            const double margin = run_in && tried[best] == StartState::record ? 0.8 : 0.95;
+            if (score[r][k] < margin * score[r][best])
               best = k;
           }
         rc.start       = tried[best];

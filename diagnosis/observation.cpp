@@ -9,6 +9,7 @@
 #include "common/case_file.h"
 #include "diagnosis/fourier.h"
 #include "diagnosis/residuals.h"
+#include "system/reed.h"
 #include "system/simulation.h"
 
 namespace rectify::diagnosis
@@ -169,16 +170,18 @@ namespace rectify::diagnosis
           return "steady";
         case StartState::periodic:
           return "periodic";
+        case StartState::record:
+          return "record";
       }
     return "rest";
   }
 
   StartState start_state_from_string(const std::string &name)
   {
-    for (auto s : {StartState::rest, StartState::steady, StartState::periodic})
+    for (auto s : {StartState::rest, StartState::steady, StartState::periodic, StartState::record})
       if (to_string(s) == name)
         return s;
-    throw InputError("start state '" + name + "': expected rest, steady or periodic");
+    throw InputError("start state '" + name + "': expected rest, steady, periodic or record");
   }
 
   system::Drive measured_drive(const MeasuredRun &run, double frequency_Hz, double extra_noise_sd,
@@ -240,9 +243,93 @@ namespace rectify::diagnosis
                                        column == "voltage_V", run.source);
   }
 
+  RecordedState recorded_state(const MeasuredRun &run, double frequency_Hz)
+  {
+    RecordedState r;
+    std::vector<double> t(run.time_s.size());
+    for (std::size_t i = 0; i < t.size(); ++i)
+      t[i] = run.time_s[i] - run.time_s.front();
+    const auto first = [&](const char *column) {
+      if (!run.has(column))
+        return std::numeric_limits<double>::quiet_NaN();
+      return band_limit(t, run.signal(column), drive_cutoff_harmonic * frequency_Hz).front();
+    };
+    r.chamber_pressure_Pa       = first("chamber_pressure_Pa");
+    r.outlet_pressure_Pa        = first("outlet_pressure_Pa");
+    r.outlet_valve_m            = first("outlet_valve_m");
+    r.strain                    = first("strain");
+    r.actuator_position_m       = first("actuator_position_m");
+    r.actuator_velocity_m_per_s = first("actuator_velocity_m_per_s");
+    if (run.has("outlet_valve_m"))
+      r.outlet_valve_noise_m = white_noise_sd(run.signal("outlet_valve_m"));
+    return r;
+  }
+
+  std::vector<double> state_from_record(system::Model &model, const RecordedState &r, double drive_at_0,
+                                        double rod_length_m)
+  {
+    using namespace system;
+    model.reset();
+    std::vector<double> y = model.initial_state();
+    const auto         &c = model.constants();
+    const std::size_t   n = y.size();
+    const auto given = [](double v) { return std::isfinite(v); };
+    const double p_ch  = given(r.chamber_pressure_Pa) ? r.chamber_pressure_Pa - c.p_bias : 0.0;
+    const double p_out = given(r.outlet_pressure_Pa) ? r.outlet_pressure_Pa - c.p_bias : 0.0;
+    y[state::chamber_p] = p_ch;
+    y[state::high_p]    = p_out;
+    if (state::line_node_p < n && c.L_line > 0)
+      y[state::line_node_p] = p_out;
+    // the rod: measured, or in its static balance F = k_eff x_p + A_pi p_ch
+    const double current = drive_at_0 * (model.drive().is_voltage() ? 1.0 / c.R_coil : 1.0);
+    const double x_p     = given(r.strain) ? r.strain * rod_length_m :
+                                             (c.force_per_ampere * current - c.A_pi * p_ch) / c.k_eff;
+    y[state::piston_x] = x_p;
+    y[state::fluid_x]  = x_p - c.A_pi * p_ch / c.k_f; // k_f (x_p - x_f) = A_pi p_ch
+    // the outlet reed: open if its opening stands above the laser's noise
+    if (given(r.outlet_valve_m) && r.outlet_valve_m > 3.0 * r.outlet_valve_noise_m && r.outlet_valve_m > 0)
+      {
+        model.set_closed(0, false);
+        y[state::outlet_reed_x] = r.outlet_valve_m;
+      }
+    if (model.scenario() == Scenario::loaded)
+      {
+        if (given(r.actuator_position_m))
+          y[state::actuator_x] = r.actuator_position_m;
+        if (given(r.actuator_velocity_m_per_s))
+          y[state::actuator_v] = r.actuator_velocity_m_per_s;
+      }
+    // the oil is conserved since rest: what the chamber (less the rod's
+    // stroke), the high side and the line hold came from the accumulator
+    // and the low side (the cylinder's stroke moves oil between its sides)
+    double held = model.stored_volume(0, p_ch) - c.A_pi * x_p + model.stored_volume(1, p_out);
+    if (c.L_line > 0)
+      held += model.stored_volume(3, p_out);
+    const double p_acc = -held / (c.C_acc + c.C_l);
+    y[state::accumulator_p] = p_acc;
+    y[state::low_p]         = p_acc;
+    // a seated reed whose pressures already push it open lifts now: its
+    // lift-off is a root of the opening force crossing the seat's, which a
+    // start already past it would never see
+    for (int pass = 0; pass < 2; ++pass)
+      for (std::size_t v = 0; v < 2; ++v)
+        if (model.closed(v) && model.valve_model() == ValveModel::dynamic)
+          {
+            const Flows  f     = model.flows(y);
+            const double force = v == 0 ? f.outlet_force : f.inlet_force;
+            if (force > reed_lift_force)
+              {
+                model.set_closed(v, false);
+                y[v == 0 ? state::outlet_reed_x : state::inlet_reed_x] = reed_seat_tolerance;
+              }
+          }
+    return y;
+  }
+
   Signals simulate_drive(const system::SystemParameters &p, const system::ValveMaps &map,
                          const system::Drive &drive, system::Scenario scenario,
-                         const std::vector<double> &times, double relative_tolerance, double t_start)
+                         const std::vector<double> &times, double relative_tolerance, double t_start,
+                         const RecordedState *from)
   {
     using namespace system;
     Model model(p, map, ValveModel::dynamic, scenario, drive);
@@ -251,7 +338,8 @@ namespace rectify::diagnosis
     ro.relative_tolerance        = relative_tolerance;
     ro.absolute_tolerance_factor = p.solver.absolute_tolerance_factor;
     ro.samples_per_cycle         = 200;
-    const auto y0 = model.initial_state();
+    const auto y0 = from ? state_from_record(model, *from, drive.value(t_start), p.transducer.rod_length_m) :
+                           model.initial_state();
     auto       io = integrator_options(model, ro);
     io.quiet      = true; // a fit explores parameters where the model may fail: it says so itself
     Integrator integrator(model, t_start, y0, io);
@@ -290,17 +378,30 @@ namespace rectify::diagnosis
     std::vector<double> times(n);
     for (std::size_t i = 0; i < n; ++i)
       times[i] = run.time_s[i] - run.time_s.front();
-    const bool   lead    = options.start != StartState::rest && options.lead_cycles > 0;
+    const bool   lead    = options.start != StartState::rest && options.start != StartState::record &&
+                        options.lead_cycles > 0;
     const double t_start = lead ? -options.lead_cycles / setup.frequency_Hz : 0.0;
+    const bool         from_record = options.start == StartState::record;
+    const RecordedState recorded   = from_record ? recorded_state(run, setup.frequency_Hz) : RecordedState{};
     Signals all = simulate_drive(p, map,
                                  measured_drive(run, setup.frequency_Hz, options.drive_noise_sd, options.seed,
-                                                options.start, options.lead_cycles),
+                                                options.start, from_record ? 0.0 : options.lead_cycles),
                                  setup.scenario, times, options.relative_tolerance,
-                                 t_start);
+                                 from_record ? 0.0 : t_start, from_record ? &recorded : nullptr);
     Signals out;
     for (auto &[name, values] : all)
       if (run.has(name))
         out[name] = options.band_Hz > 0 ? band_limit(times, values, options.band_Hz) : std::move(values);
+    if (const auto it = out.find("actuator_position_m"); it != out.end() && options.position_offset)
+      {
+        const auto &data = run.signal("actuator_position_m");
+        double      sum  = 0;
+        for (std::size_t i = 0; i < n; ++i)
+          sum += data[i] - it->second[i];
+        const double shift = sum / static_cast<double>(n);
+        for (double &x : it->second)
+          x += shift;
+      }
     return out;
   }
 } // namespace rectify::diagnosis

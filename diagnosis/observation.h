@@ -10,6 +10,7 @@
 // displacement over the rod length.
 #pragma once
 
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -37,10 +38,11 @@ namespace rectify::diagnosis
   {
     rest,     ///< the model from rest at t = 0 (a synthetic run, a pump switched on)
     steady,   ///< the static state under the drive's first value, held before the record
-    periodic  ///< the periodic state: the record's first cycle repeated before it (a run-in)
+    periodic, ///< the periodic state: the record's first cycle repeated before it (a run-in)
+    record    ///< the state the record shows at its first sample (recorded_state), no run-in
   };
   std::string to_string(StartState s);
-  /// "rest", "steady", "periodic"; InputError otherwise.
+  /// "rest", "steady", "periodic", "record"; InputError otherwise.
   StartState start_state_from_string(const std::string &name);
 
   struct SimulationOptions
@@ -52,9 +54,46 @@ namespace rectify::diagnosis
     double      drive_noise_sd     = 0; ///< add white noise of this sd to the drive (before its filter)
     double      band_Hz            = 0; ///< > 0: every output signal band_limit()ed at this frequency
     unsigned long seed             = 1; ///< of that noise
+    /// The model's actuator position shifted by the mean of (data - model):
+    /// a position sensor's zero is arbitrary, and a record that starts
+    /// mid-operation starts wherever the piston has travelled to. The
+    /// position is a pure integral of the velocity (the load has no spring
+    /// in the thesis's cases), so this is the initial position fitted in
+    /// closed form.
+    bool position_offset = true;
   };
 
   using Signals = std::map<std::string, std::vector<double>>;
+
+  /// What a record says about the state at its first sample: each measured
+  /// signal's value there within the first drive_cutoff_harmonic harmonics
+  /// (band_limit: the noise averaged out over about a twentieth of a cycle);
+  /// NaN where the record lacks the signal.
+  struct RecordedState
+  {
+    double chamber_pressure_Pa       = std::numeric_limits<double>::quiet_NaN();
+    double outlet_pressure_Pa        = std::numeric_limits<double>::quiet_NaN();
+    double outlet_valve_m            = std::numeric_limits<double>::quiet_NaN();
+    double outlet_valve_noise_m      = 0; ///< the opening's white-noise sd (is it open?)
+    double strain                    = std::numeric_limits<double>::quiet_NaN();
+    double actuator_position_m       = std::numeric_limits<double>::quiet_NaN();
+    double actuator_velocity_m_per_s = std::numeric_limits<double>::quiet_NaN();
+  };
+  RecordedState recorded_state(const MeasuredRun &run, double frequency_Hz);
+
+  /// The model's state at a record's first sample (StartState::record):
+  /// chamber and outlet pressures (the high side, and the outlet line's node
+  /// when there is one, at the outlet pressure), the rod from the strain
+  /// (else from its static balance under the drive), the chamber's oil
+  /// column in its static balance, the outlet reed at its measured opening
+  /// (open, if it stands above its noise), the output piston where and as
+  /// fast as measured, and the accumulator and low side where the circuit's
+  /// oil volume, conserved since rest, puts them. What the record does not
+  /// show (reed and piston velocities, the inlet reed, a line's flow) starts
+  /// at rest and settles within the first cycle, which the residuals skip.
+  /// Sets the model's valve states to match.
+  std::vector<double> state_from_record(system::Model &model, const RecordedState &r, double drive_at_0,
+                                        double rod_length_m);
 
   /// The measured drive is low-passed at this harmonic of the pumping
   /// frequency before it drives the model: its measurement noise would
@@ -127,5 +166,5 @@ namespace rectify::diagnosis
   Signals simulate_drive(const system::SystemParameters &p, const system::ValveMaps &map,
                          const system::Drive &drive, system::Scenario scenario,
                          const std::vector<double> &times, double relative_tolerance,
-                         double t_start = 0.0);
+                         double t_start = 0.0, const RecordedState *from = nullptr);
 } // namespace rectify::diagnosis

@@ -85,6 +85,25 @@ namespace rectify::system
     C_h -= C_node;
     V_node = L_line > 0 ? 0.1 * V_h : 0.0; // its oil, for the free air it holds
     V_h -= V_node;
+    // The inertance is that of a line of the case's bore, added between the
+    // valve and the high side: a line that has mass also has friction and
+    // oil. Laminar and quasi-steady (Womersley number r sqrt(w rho / mu)
+    // about 0.3 at 100 Hz for this oil), so L = 4/3 rho l / A and the line
+    // is l = 3 L A / (4 rho) long; its Poiseuille resistance joins R3, its
+    // oil's compliance A l / beta is split between its two ends (a lumped
+    // pi section: valid while l is well below a quarter wavelength at the
+    // harmonics that matter, about 0.4 m at 500 Hz).
+    if (L_line > 0)
+      {
+        const double d = p.lines.diameter_m, A = M_PI * d * d / 4.0;
+        const double l = 3.0 * L_line * A / (4.0 * p.fluid.density_kg_per_m3);
+        added_line_length = l;
+        R3 += 128.0 * p.fluid.viscosity_Pa_s * l / (M_PI * d * d * d * d);
+        C_node += 0.5 * A * l / beta_eff;
+        C_h += 0.5 * A * l / beta_eff;
+        V_node += 0.5 * A * l;
+        V_h += 0.5 * A * l;
+      }
     coil_dynamics  = p.drive.coil_dynamics == "on";
     R_coil         = p.transducer.coil_resistance_ohm;
     L_coil         = p.transducer.coil_inductance_H;
@@ -114,6 +133,7 @@ namespace rectify::system
             {"outlet_line_node_capacitance_m3_per_Pa", C_node},
             {"low_side_capacitance_m3_per_Pa", C_l},
             {"line_resistance_Pa_s_per_m3", R3},
+            {"added_outlet_line_length_m", added_line_length},
             {"bias_pressure_Pa", p_bias}};
   }
 

@@ -119,6 +119,7 @@ namespace rectify::system
     double L_line;                 ///< outlet-line inertance
     double C_node;                 ///< oil between the outlet valve and the line (with L_line)
     double V_node;                 ///< its volume (a tenth of the high side's, taken from V_h)
+    double added_line_length = 0;  ///< the line whose inertance L_line is (its R and C are in R3, C_node, C_h)
     bool   coil_dynamics;          ///< integrate the coil current (voltage drive)
     double R_coil, L_coil;
     double F_coulomb, v_friction;  ///< output-piston friction F_c tanh(v / v_s)

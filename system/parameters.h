@@ -93,8 +93,10 @@ namespace rectify::system
     double length_m   = 12 * 0.0254;
     /// eq. 3.28: 128 mu L / (pi d^4)
     double resistance_Pa_s_per_m3(double viscosity_Pa_s) const;
-    /// Fluid inertance of the outlet line (diagnosis effect `line_inertance`),
-    /// rho L / A for a tube; 0 for none (the thesis neglects it).
+    /// Fluid inertance of the outlet line (diagnosis effect `line_inertance`):
+    /// that of an added length l of line of this bore, 4/3 rho l / A
+    /// (laminar), which also adds its resistance and oil (ModelConstants);
+    /// 0 for none (the thesis neglects it).
     double outlet_inertance_Pa_s2_per_m3 = 0.0;
     static LineParameters from_case(const CaseFile &file);
   };

@@ -200,8 +200,10 @@ TEST(Effects, InertialLineFeedsTheHighSideThroughItsOwnNode)
   // Valve into the node between valve and line, line out of it:
   //   q_valve = (p_ch - p_node) / R1,  C_node p_node' = q_valve - q_line,
   //   L q_line' = p_node - p_h - R3 q_line,  C_h p_h' = q_line,
-  // C_node a tenth of the thesis's high side, C_h the rest; the outlet
-  // pressure is the node's.
+  // C_node a tenth of the thesis's high side plus half the added line's
+  // oil, C_h the rest plus the other half; the outlet pressure is the
+  // node's. The line: L = 4/3 rho l / A at the case's bore, so
+  // l = 3 L A / (4 rho), R3 grows by 128 mu l / (pi d^4), its oil A l / beta.
   auto p                                = reference();
   p.lines.outlet_inertance_Pa_s2_per_m3 = 1.12e8;
   Model m                               = make(p, Scenario::no_flow, 150);
@@ -214,10 +216,20 @@ TEST(Effects, InertialLineFeedsTheHighSideThroughItsOwnNode)
   y[state::line_flow]     = 1e-6;
   const auto  &c      = m.constants();
   const double R1     = reference_map(p).evaluate(40e-6).resistance;
-  const double C_h0   = make(reference(), Scenario::no_flow, 150).constants().C_h;
-  const double C_node = 0.1 * C_h0;
+  const Model  m0     = make(reference(), Scenario::no_flow, 150);
+  const auto  &c0     = m0.constants();
+  const double C_h0   = c0.C_h;
+  const double d = p.lines.diameter_m, A = std::numbers::pi * d * d / 4;
+  const double l      = 3 * 1.12e8 * A / (4 * p.fluid.density_kg_per_m3);
+  EXPECT_NEAR(l, 1.58, 0.01); // 1.58 m of the case's 4.57 mm line
+  EXPECT_NEAR(c.added_line_length, l, 1e-12 * l);
+  const double C_line = A * l / p.fluid.effective_bulk_modulus_Pa();
+  const double C_node = 0.1 * C_h0 + 0.5 * C_line;
   EXPECT_NEAR(c.C_node, C_node, 1e-12 * C_node);
-  EXPECT_NEAR(c.C_h, 0.9 * C_h0, 1e-12 * C_h0);
+  EXPECT_NEAR(c.C_h, 0.9 * C_h0 + 0.5 * C_line, 1e-12 * C_h0);
+  const double R_line = 128 * p.fluid.viscosity_Pa_s * l / (std::numbers::pi * std::pow(d, 4));
+  EXPECT_NEAR(c.R3, c0.R3 + R_line, 1e-12 * c.R3);
+  EXPECT_NEAR(c.R3 / c0.R3, 1 + l / p.lines.length_m, 1e-12); // the same bore: R in proportion to length
   const Flows f = m.flows(y);
   EXPECT_NEAR(f.q_outlet, 0.6e6 / R1, 1e-12 * 0.6e6 / R1);
   EXPECT_EQ(f.q_line, 1e-6);
@@ -236,8 +248,8 @@ TEST(Effects, InertialLineFeedsTheHighSideThroughItsOwnNode)
   ma.set_closed(0, false);
   const auto  &ca   = ma.constants();
   const double V_h0 = make(reference(), Scenario::no_flow, 150).constants().V_h;
-  EXPECT_NEAR(ca.V_node, 0.1 * V_h0, 1e-12 * V_h0);
-  EXPECT_NEAR(ca.V_h, 0.9 * V_h0, 1e-12 * V_h0);
+  EXPECT_NEAR(ca.V_node, 0.1 * V_h0 + 0.5 * A * l, 1e-12 * V_h0);
+  EXPECT_NEAR(ca.V_h, 0.9 * V_h0 + 0.5 * A * l, 1e-12 * V_h0);
   m.rhs(0.0, y, ydot);
   std::vector<double> ydot_air(ma.n_states());
   ma.rhs(0.0, y, ydot_air);
@@ -249,10 +261,10 @@ TEST(Effects, InertialLineFeedsTheHighSideThroughItsOwnNode)
   // A reed closing on the flowing line: the first version (valve and line in
   // one branch, no node) spiked the outlet pressure to 3.9 GPa at t = 64 ms
   // in `rectify synth` of this case, 500x the chamber's peak. With the node
-  // the water hammer of the stopping line lifts the node above the chamber
-  // (9.8 vs 7.5 MPa here: a flow q stopped in C_node rises by up to
-  // q sqrt(L / C_node), 2.3 MPa for q = 3.6 cm^3/s) but not past twice the
-  // chamber's peak, and the volume balances (the node's oil included) close.
+  // the water hammer of the stopping line can lift the node above the
+  // chamber (a flow q stopped in C_node rises by up to q sqrt(L / C_node))
+  // but not past twice the chamber's peak, and the volume balances (the
+  // node's and the line's oil included) close.
   RunOptions o = options(16);
   o.record     = true;
   o.relative_tolerance = 1e-6;

@@ -17,7 +17,9 @@
 #include "diagnosis/measured_run.h"
 #include "diagnosis/observation.h"
 #include "diagnosis/residuals.h"
+#include "system/integrator.h"
 #include "system/parameters.h"
+#include "system/simulation.h"
 
 using namespace rectify;
 using namespace rectify::diagnosis;
@@ -157,7 +159,7 @@ TEST(ForeignData, UncertainTableIsCheckedWhereItIsRead)
 }
 
 // A record cut from the middle of a run (cycle 30 of 46, at a third of a
-// cycle) is simulated from its own periodic state: with the start from rest
+// cycle) is simulated from its own periodic state or its recorded one: with the start from rest
 // the model's first cycles are a start-up the record never had. The data
 // come from the model itself: this checks the start, not an identification.
 TEST(ForeignData, ARecordFromMidOperationStartsFromItsPeriodicState)
@@ -191,10 +193,14 @@ TEST(ForeignData, ARecordFromMidOperationStartsFromItsPeriodicState)
   std::vector<RunCase> runs{make_run_case(run, system::Scenario::no_flow, 0, 0.75, true, 10)};
   DiagnoseOptions      options;
   choose_start(p, map, runs, options, 2);
-  EXPECT_EQ(runs[0].start, StartState::periodic);
+  // from its own periodic state or from the state its first samples show,
+  // both far closer than from rest
+  EXPECT_TRUE(runs[0].start == StartState::periodic || runs[0].start == StartState::record)
+    << runs[0].start_scores.dump();
   EXPECT_GT(runs[0].n_skip, 0u);
   const double rest = runs[0].start_scores["rest"], periodic = runs[0].start_scores["periodic"];
   EXPECT_LT(periodic, 0.1 * rest) << runs[0].start_scores.dump();
+  EXPECT_LT(runs[0].start_scores["record"].get<double>(), 0.2 * rest) << runs[0].start_scores.dump();
   // the drive's phase at the record's start: a third of a cycle in
   EXPECT_NEAR(drive_phase_at_start(runs[0].run, 100), 67.0 / 200.0, 0.01);
 }
@@ -253,4 +259,60 @@ TEST(ForeignData, TheVerdictSaysBeyondTheLibraryWhenNothingFits)
   EXPECT_NE(s["verdict_sentence"].get<std::string>().find("Largest remaining residual: chamber pressure"),
             std::string::npos)
     << s["verdict_sentence"];
+}
+
+// The state a record shows at its first sample (--start record): pressures
+// and rod as measured, the chamber's oil column in its static balance, the
+// accumulator and low side where the oil conserved since rest puts them.
+// Against the model's own state 30 cycles into a run with a soft seal (the
+// high side then holds 100x the thesis's oil): the oil the estimate gives
+// the accumulator and low side is what they hold.
+TEST(ForeignData, TheRecordedStateIsWhatWasMeasuredAndConservesTheOil)
+{
+  namespace s = rectify::system::state;
+  auto p      = system::SystemParameters::from_case(CaseFile::load(reference_case_path()));
+  p.cylinder.seal_compliance_m3_per_Pa = 3e-13;
+  const auto   map   = system::load_valve_maps(p);
+  const double f     = 100;
+  const auto   drive = system::Drive::sine(f, 20, 10);
+  system::Model model(p, map, system::ValveModel::dynamic, system::Scenario::no_flow, drive);
+  model.reset();
+  system::RunOptions ro;
+  ro.relative_tolerance        = 1e-8;
+  ro.absolute_tolerance_factor = p.solver.absolute_tolerance_factor;
+  auto io                      = system::integrator_options(model, ro);
+  io.quiet                     = true;
+  system::Integrator integrator(model, 0.0, model.initial_state(), io);
+  const double       t1 = 30.0 / f; // the drive's minimum: the outlet valve shut
+  integrator.advance_to(t1);
+  const auto          span = integrator.state();
+  std::vector<double> y(span.begin(), span.end());
+  ASSERT_TRUE(model.closed(0));
+  const double  rod = p.transducer.rod_length_m;
+  RecordedState r;
+  r.chamber_pressure_Pa = p.fluid.bias_pressure_Pa + y[s::chamber_p];
+  r.outlet_pressure_Pa  = p.fluid.bias_pressure_Pa + model.flows(y).p_outlet;
+  r.outlet_valve_m      = model.opening(0, y);
+  r.strain              = y[s::piston_x] / rod;
+
+  system::Model fresh(p, map, system::ValveModel::dynamic, system::Scenario::no_flow, drive);
+  const auto    e = state_from_record(fresh, r, drive.value(t1), rod);
+  const auto   &c = fresh.constants();
+  EXPECT_TRUE(fresh.closed(0));
+  EXPECT_NEAR(e[s::chamber_p], y[s::chamber_p], 1e-6);
+  EXPECT_NEAR(e[s::high_p], y[s::high_p], 1e-6 * std::abs(y[s::high_p]));
+  EXPECT_GT(y[s::high_p], 3e5); // the soft seal has stored something by now
+  EXPECT_NEAR(e[s::piston_x], y[s::piston_x], 1e-15);
+  // the oil column's compression A_pi p_ch / k_f, within 10 % (the column
+  // is not quite at rest)
+  const double squeeze = c.A_pi * y[s::chamber_p] / c.k_f;
+  EXPECT_NEAR(e[s::piston_x] - e[s::fluid_x], y[s::piston_x] - y[s::fluid_x], 0.1 * std::abs(squeeze));
+  // the oil: what accumulator and low side gave is what they hold
+  const double given = c.C_acc * y[s::accumulator_p] + c.C_l * y[s::low_p];
+  EXPECT_LT(given, 0);
+  EXPECT_NEAR((c.C_acc + c.C_l) * e[s::accumulator_p], given, 1e-3 * std::abs(given));
+  EXPECT_EQ(e[s::accumulator_p], e[s::low_p]);
+  // and nothing else moves
+  for (std::size_t k : {s::piston_v, s::fluid_v, s::outlet_reed_x, s::outlet_reed_v, s::inlet_reed_x})
+    EXPECT_EQ(e[k], 0.0) << k;
 }

@@ -59,7 +59,7 @@ def main():
                               ("loaded" if a.effect == "none" and rng.uniform() < 0.25 else "no-flow"))
     freqs = [75.0, 100.0] if scenario == "loaded" else [50.0, 100.0, 150.0]
     if a.effect == "line_inertance":
-        freqs = [50.0, 100.0]
+        freqs = [100.0, 150.0]
     f = a.frequency or float(rng.choice(freqs))
     pp, bias = (4.0, 2.0) if scenario == "loaded" else (20.0, 10.0)
 

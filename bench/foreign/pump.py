@@ -50,10 +50,10 @@ NOMINAL = dict(
     # the thesis's R(x): eq. 3.40 with its floor and closed value
     R_closed=1e17, R_fit0=2.34e11, R_fit_rate=0.025e6, R_floor=4.5e8,
     # baseline choices the thesis does not give: drawn in RANGES below
-    # the pump's outlet passage to the cylinder: short (a compact manifold),
-    # so that its inertance rings far above the pumping harmonics; the
-    # hidden effect line_inertance is a long hose instead
-    line_d=4.572e-3, line_l=0.3048, outlet_line_l=0.05,
+    # the pump's outlet passage to the cylinder: short (a compact manifold,
+    # 1 cm), so that its inertance rings far above the pumping harmonics; the
+    # hidden effect line_inertance is a hose instead
+    line_d=4.572e-3, line_l=0.3048, outlet_line_l=0.01,
     A_po=0.2 * IN**2, wet_l=1.0 * IN, xi_h=0.5, V_gas=1.0 * IN**3,
     force_gain=1.0, load_mass=50 * 0.45359,
 )
@@ -71,10 +71,16 @@ RANGES = dict(
 # hidden effects: name -> (parameter, low, high, log); the study's ranges
 EFFECTS = {
     "entrained_air": ("alpha", 4e-3, 1.5e-2, True),
-    "outlet_compliance": ("C_seal", 3e-12, 1e-10, True),
+    # a soft seal: 3-100x the high side's oil (C_h about 3e-15 m^3/Pa); far
+    # beyond that the high side never charges within a record and any large
+    # compliance, or a leak, looks the same
+    "outlet_compliance": ("C_seal", 1e-14, 3e-13, True),
     "valve_leakage": ("R_leak", 5e10, 2e12, True),
     "orifice_flow": ("Cd", 0.35, 0.5, False),
-    "line_inertance": ("L_line", 6e7, 3e8, True),
+    # a hose of the lines' bore, 0.1-1 m long (4/3 rho l / A): lumped below its
+    # quarter-wave frequency at the first harmonics (a longer hose rings
+    # like a transmission line, which neither model here is)
+    "line_inertance": ("L_line", 8e6, 4e7, True),
     "coil_dynamics": ("L_coil", 5e-4, 5e-3, True),
     "piston_friction": ("F_c", 4.0, 60.0, True),
     "reed_second_mode": ("f2", 2000.0, 3000.0, True),

@@ -1,5 +1,7 @@
 // line_inertance: the oil in the outlet line has mass; accelerating it takes a
-// pressure difference L dq/dt (L = rho l / A for a tube).
+// pressure difference L dq/dt. L is that of a line of the case's bore added
+// between valve and high side (L = 4/3 rho l / A, laminar), which brings its
+// Poiseuille resistance and its oil's compliance with it (system/model.cpp).
 #include <cmath>
 #include <numbers>
 
@@ -12,11 +14,12 @@ namespace rectify::diagnosis
     return std::make_shared<Effect>(
       "line_inertance",
       "fluid inertance of the outlet line, L dq/dt in series with the line's resistance, fed "
-      "through the outlet valve into the oil between valve and line",
+      "through the outlet valve into the oil between valve and line; L is that of an added length "
+      "of line of the case's bore (4/3 rho l / A), whose resistance and oil compliance come with it",
       "the outlet flow lags the chamber: the outlet valve's pressure drop overshoots at each "
       "opening and the outlet pressure rings after each closing; grows with frequency",
       std::vector<EffectParameter>{{"lines", "outlet_inertance_Pa_s2_per_m3", 1e5, 1e9, true,
-                                    "inertance of the outlet line (rho l / A)", 0,
+                                    "inertance of the outlet line (4/3 rho l / A)", 0,
                                     // with the outlet valve closed the line's oil swings
                                     // between the node and the high side: the two
                                     // compliances in series with L
