@@ -6,7 +6,7 @@
 # hides a leak of 4e11 Pa s/m^3 in a record that starts mid-operation;
 # `rectify diagnose`, run as a user would (reference case, all candidates),
 # must name valve_leakage with R within 20 %, say how much it explains, and not
-# simulate the record from rest (steady or periodic: both estimate its state).
+# simulate the record from rest (record, steady or periodic: each estimates its state).
 #   tests/foreign_bench.sh RECTIFY SOURCE_DIR SCRATCH_DIR
 set -euo pipefail
 rectify=$1 src=$2 out=$3
