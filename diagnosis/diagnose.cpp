@@ -517,6 +517,7 @@ namespace rectify::diagnosis
     so.start              = start;
     so.lead_cycles        = lead_cycles;
     so.band_Hz            = band_Hz;
+    so.recorded           = recorded;
     return so;
   }
 
@@ -531,6 +532,7 @@ namespace rectify::diagnosis
     for (const auto &c : signal_columns())
       if (run.has(c))
         rc.white_sd[c] = white_noise_sd(run.signal(c));
+    rc.recorded = recorded_state(run, f); // before the band limit: the laser's own noise decides "open"
     if (harmonics > 0 && uniformly_sampled(run.time_s))
       {
         const double dt = run.duration_s() / static_cast<double>(run.time_s.size() - 1);

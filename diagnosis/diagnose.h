@@ -105,6 +105,9 @@ namespace rectify::diagnosis
     std::size_t                   n_skip  = 0; ///< settling samples left out at the start
     StartState                    start   = StartState::rest;
     double                        lead_cycles = 0;   ///< simulated before the record
+    /// Its state at the first sample (StartState::record), read once from
+    /// the record before it is band-limited.
+    RecordedState                 recorded;
     nlohmann::json                start_scores;      ///< residual of each start tried (auto)
     std::vector<Outlier>          outliers;          ///< found and replaced in the record
     double                        band_Hz = 0;        ///< the comparison's band (0: whole)

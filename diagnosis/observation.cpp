@@ -188,7 +188,7 @@ namespace rectify::diagnosis
                                unsigned long seed, StartState start, double lead_cycles)
   {
     system::Drive d = measured_drive(run, frequency_Hz, extra_noise_sd, seed);
-    if (start == StartState::rest || !(lead_cycles > 0))
+    if (start == StartState::rest || start == StartState::record || !(lead_cycles > 0))
       return d;
     const auto        &t0  = run.time_s;
     const std::size_t  n   = t0.size();
@@ -381,13 +381,14 @@ namespace rectify::diagnosis
     const bool   lead    = options.start != StartState::rest && options.start != StartState::record &&
                         options.lead_cycles > 0;
     const double t_start = lead ? -options.lead_cycles / setup.frequency_Hz : 0.0;
-    const bool         from_record = options.start == StartState::record;
-    const RecordedState recorded   = from_record ? recorded_state(run, setup.frequency_Hz) : RecordedState{};
+    std::optional<RecordedState> recorded;
+    if (options.start == StartState::record)
+      recorded = options.recorded ? *options.recorded : recorded_state(run, setup.frequency_Hz);
     Signals all = simulate_drive(p, map,
                                  measured_drive(run, setup.frequency_Hz, options.drive_noise_sd, options.seed,
-                                                options.start, from_record ? 0.0 : options.lead_cycles),
-                                 setup.scenario, times, options.relative_tolerance,
-                                 from_record ? 0.0 : t_start, from_record ? &recorded : nullptr);
+                                                options.start, options.lead_cycles),
+                                 setup.scenario, times, options.relative_tolerance, t_start,
+                                 recorded ? &*recorded : nullptr);
     Signals out;
     for (auto &[name, values] : all)
       if (run.has(name))

@@ -12,6 +12,7 @@
 
 #include <limits>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -45,6 +46,22 @@ namespace rectify::diagnosis
   /// "rest", "steady", "periodic", "record"; InputError otherwise.
   StartState start_state_from_string(const std::string &name);
 
+  /// What a record says about the state at its first sample: each measured
+  /// signal's value there within the first drive_cutoff_harmonic harmonics
+  /// (band_limit: the noise averaged out over about a twentieth of a cycle);
+  /// NaN where the record lacks the signal.
+  struct RecordedState
+  {
+    double chamber_pressure_Pa       = std::numeric_limits<double>::quiet_NaN();
+    double outlet_pressure_Pa        = std::numeric_limits<double>::quiet_NaN();
+    double outlet_valve_m            = std::numeric_limits<double>::quiet_NaN();
+    double outlet_valve_noise_m      = 0; ///< the opening's white-noise sd (is it open?)
+    double strain                    = std::numeric_limits<double>::quiet_NaN();
+    double actuator_position_m       = std::numeric_limits<double>::quiet_NaN();
+    double actuator_velocity_m_per_s = std::numeric_limits<double>::quiet_NaN();
+  };
+  RecordedState recorded_state(const MeasuredRun &run, double frequency_Hz);
+
   struct SimulationOptions
   {
     StartState  start       = StartState::rest;
@@ -61,25 +78,13 @@ namespace rectify::diagnosis
     /// in the thesis's cases), so this is the initial position fitted in
     /// closed form.
     bool position_offset = true;
+    /// For StartState::record: the record's state, if already read (once
+    /// per run: RunCase); read from the run otherwise.
+    std::optional<RecordedState> recorded;
   };
 
   using Signals = std::map<std::string, std::vector<double>>;
 
-  /// What a record says about the state at its first sample: each measured
-  /// signal's value there within the first drive_cutoff_harmonic harmonics
-  /// (band_limit: the noise averaged out over about a twentieth of a cycle);
-  /// NaN where the record lacks the signal.
-  struct RecordedState
-  {
-    double chamber_pressure_Pa       = std::numeric_limits<double>::quiet_NaN();
-    double outlet_pressure_Pa        = std::numeric_limits<double>::quiet_NaN();
-    double outlet_valve_m            = std::numeric_limits<double>::quiet_NaN();
-    double outlet_valve_noise_m      = 0; ///< the opening's white-noise sd (is it open?)
-    double strain                    = std::numeric_limits<double>::quiet_NaN();
-    double actuator_position_m       = std::numeric_limits<double>::quiet_NaN();
-    double actuator_velocity_m_per_s = std::numeric_limits<double>::quiet_NaN();
-  };
-  RecordedState recorded_state(const MeasuredRun &run, double frequency_Hz);
 
   /// The model's state at a record's first sample (StartState::record):
   /// chamber and outlet pressures (the high side, and the outlet line's node
