@@ -221,9 +221,11 @@ namespace rectify::app
       std::vector<std::string> series;
       std::string              spacing = "log";
       unsigned                 jobs    = 0;
+      std::size_t              chains  = 0;
       bool                     quiet   = false;
       double                   settle_tolerance = 2e-3;
       std::size_t              max_startup      = 1000;
+      double                   startup_rtol     = 0;
     };
 
     void sweep(const SweepCommandOptions &o)
@@ -255,11 +257,16 @@ namespace rectify::app
       s.run.n_cycles           = o.cycles;
       s.run.settle_tolerance   = o.settle_tolerance;
       s.run.max_startup_cycles = o.max_startup;
+      if (o.startup_rtol != 0 && !(o.startup_rtol >= p.solver.relative_tolerance && o.startup_rtol <= 1e-2))
+        throw InputError("--startup-rtol " + format_number(o.startup_rtol) + ": must be 0 (the rtol, " +
+                         format_number(p.solver.relative_tolerance) + ") or in [rtol, 1e-2]");
+      s.run.startup_relative_tolerance = o.startup_rtol;
       // A sweep records no time series: a few samples a cycle serve the
       // diagnostics (reed openings, chamber pressure); the solution itself
       // does not depend on them (CVODE interpolates to each sample).
       s.run.samples_per_cycle  = 16;
       s.jobs                   = o.jobs;
+      s.chains                 = o.chains;
       s.quiet                  = o.quiet;
 
       std::string series_list;
@@ -276,8 +283,10 @@ namespace rectify::app
                                    format_number(s.current_bias_A) + " A bias"},
                      {"cycles", "settled start-up (tolerance " + format_number(o.settle_tolerance) +
                                   ") + " + std::to_string(o.cycles) + " measured"},
-                     {"rtol", format_number(p.solver.relative_tolerance)},
+                     {"rtol", format_number(p.solver.relative_tolerance) +
+                                (o.startup_rtol > 0 ? " (start-up " + format_number(o.startup_rtol) + ")" : "")},
                      {"jobs", o.jobs ? std::to_string(o.jobs) : "all cores"},
+                     {"chains", o.chains ? std::to_string(o.chains) + " (continuation)" : "none (every frequency from rest)"},
                      {"out", o.out_dir}});
 
       const std::filesystem::path out(o.out_dir);
@@ -421,12 +430,19 @@ namespace rectify::app
       ->check(CLI::IsMember({"log", "linear"}))
       ->capture_default_str();
     sw->add_option("--jobs", sw_options->jobs, "parallel runs (0: all cores)")->capture_default_str();
+    sw->add_option("--chains", sw_options->chains,
+                   "continuation: each series' frequencies in this many chains, each frequency "
+                   "starting where its lower neighbour settled (0: every frequency from rest)")
+      ->capture_default_str();
     sw->add_option("--settle-tolerance", sw_options->settle_tolerance,
                    "relative change of the cycle mean that counts as settled")
       ->check(CLI::Range(1e-6, 0.5))
       ->capture_default_str();
     sw->add_option("--max-startup-cycles", sw_options->max_startup,
                    "give up settling after this many cycles (the run is flagged)")
+      ->capture_default_str();
+    sw->add_option("--startup-rtol", sw_options->startup_rtol,
+                   "CVODE relative tolerance while settling (0: the rtol); the measured cycles use the rtol")
       ->capture_default_str();
     sw->add_flag("--quiet", sw_options->quiet, "no progress lines");
     sw->callback([sw_options]() { sweep(*sw_options); });

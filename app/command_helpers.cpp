@@ -19,3 +19,35 @@ namespace rectify::app
       std::fprintf(stderr, "  %-22s %s\n", name.c_str(), value.c_str());
   }
 } // namespace rectify::app
+
+#include "app/main_common.h"
+#include "common/case_file.h"
+
+namespace rectify::app
+{
+  int run_app(CLI::App &app, int argc, char **argv)
+  {
+    app.require_subcommand(1);
+    app.set_version_flag("--version", rectify::version_text(),
+                         "Print the version, the source revision and the libraries' versions, then exit");
+    try
+      {
+        app.parse(argc, argv);
+      }
+    catch (const CLI::ParseError &e)
+      {
+        return app.exit(e);
+      }
+    catch (const rectify::InputError &e)
+      {
+        std::fprintf(stderr, "rectify: error: %s\n", e.what());
+        return 2;
+      }
+    catch (const std::exception &e)
+      {
+        std::fprintf(stderr, "rectify: failed: %s\n", e.what());
+        return 1;
+      }
+    return 0;
+  }
+} // namespace rectify::app

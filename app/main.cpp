@@ -8,45 +8,24 @@
 // --out DIR, and writes DIR/summary.json beside its CSV tables and plots.
 // Errors in input name the file, key and value; the exit code is 2 for bad
 // input, 1 for a failure of the computation.
-#include <cstdio>
-#include <exception>
-
+//
+// This front end runs the system commands; the finite-element ones are
+// handed over to rectify-fe (app/fe_commands.h), so that a simulation does
+// not load the FE stack.
 #include "app/commands.h"
-#include "common/case_file.h"
-#include "common/version.h"
+#include "app/fe_commands.h"
+#include "app/main_common.h"
 
 int main(int argc, char **argv)
 {
+  if (const int failed = rectify::app::forward_to_fe(argc, argv))
+    return failed;
   CLI::App app{"rectify " RECTIFY_VERSION
                ": reed valves of smart-material pumps, from flow and structure to the whole actuator"};
-  app.require_subcommand(1);
-  app.set_version_flag("--version", rectify::version_text(),
-                       "Print the version, the source revision and the libraries' versions, then exit");
   rectify::app::register_check_command(app);
   rectify::app::register_system_commands(app);
   rectify::app::register_map_commands(app);
-  rectify::app::register_mesh_commands(app);
-  rectify::app::register_stokes_commands(app);
-  rectify::app::register_design_commands(app);
-  rectify::app::register_stiffness_commands(app);
+  rectify::app::register_fe_command_stubs(app);
   rectify::app::register_diagnosis_commands(app);
-  try
-    {
-      app.parse(argc, argv);
-    }
-  catch (const CLI::ParseError &e)
-    {
-      return app.exit(e);
-    }
-  catch (const rectify::InputError &e)
-    {
-      std::fprintf(stderr, "rectify: error: %s\n", e.what());
-      return 2;
-    }
-  catch (const std::exception &e)
-    {
-      std::fprintf(stderr, "rectify: failed: %s\n", e.what());
-      return 1;
-    }
-  return 0;
+  return rectify::app::run_app(app, argc, argv);
 }

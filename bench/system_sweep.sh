@@ -10,7 +10,7 @@ out=${1:-/tmp/rectify-bench-sweep}
 shift || true
 rm -rf "$out"
 start=$(date +%s.%N)
-build/bin/rectify sweep --scenario loaded --from 10 --to 3500 --n 100 --spacing linear \
+${RECTIFY:-build/bin/rectify} sweep --scenario loaded --from 10 --to 3500 --n 100 --spacing linear \
   --series dynamic --quiet --out "$out" "$@"
 end=$(date +%s.%N)
 awk -F, -v start="$start" -v end="$end" 'NR > 1 {

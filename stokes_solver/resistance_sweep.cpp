@@ -15,37 +15,6 @@
 
 namespace rectify::stokes
 {
-  SweepSettings SweepSettings::from_case(const CaseFile &f)
-  {
-    SweepSettings     s;
-    const std::string t = "design";
-    s.from_m            = f.real(t, "openings_from_m", s.from_m, Bounds::positive());
-    s.to_m              = f.real(t, "openings_to_m", s.to_m, Bounds::positive());
-    s.initial_openings  = static_cast<unsigned>(f.integer(t, "initial_openings", s.initial_openings, 3, 200));
-    s.tolerance         = f.real(t, "tolerance", s.tolerance, Bounds::open(0.0, 1.0));
-    s.min_ratio         = f.real(t, "min_ratio", s.min_ratio, Bounds{1.0, 10.0, false, true});
-    s.max_openings      = static_cast<unsigned>(f.integer(t, "max_openings", s.max_openings, 3, 1000));
-    if (!(s.to_m > s.from_m))
-      throw InputError(f.where(t, "openings_to_m") + " = " + format_number(s.to_m) +
-                       ": must exceed openings_from_m = " + format_number(s.from_m));
-    const auto g = ValveGeometry::from_case(f);
-    if (s.to_m >= g.pocket_height_m - g.reed_thickness_m)
-      throw InputError(f.where(t, "openings_to_m") + " = " + format_number(s.to_m) +
-                       ": the reed's top would reach the pocket's ceiling ([geometry] pocket_height_m = " +
-                       format_number(g.pocket_height_m) + ")");
-    if (s.max_openings < s.initial_openings)
-      throw InputError(f.where(t, "max_openings") + " = " + std::to_string(s.max_openings) +
-                       ": below initial_openings = " + std::to_string(s.initial_openings));
-    return s;
-  }
-
-  nlohmann::json SweepSettings::to_json() const
-  {
-    return {{"openings_from_m", from_m},        {"openings_to_m", to_m},
-            {"initial_openings", initial_openings}, {"tolerance", tolerance},
-            {"min_ratio", min_ratio},           {"max_openings", max_openings}};
-  }
-
   const std::vector<std::string> &OpeningPoint::columns()
   {
     static const std::vector<std::string> c{

@@ -215,6 +215,26 @@ namespace rectify::system
     return s;
   }
 
+  void Integrator::set_tolerances(double relative, std::span<const double> absolute)
+  {
+    Impl &m = *impl_;
+    if (absolute.size() != m.system.n_states())
+      throw std::logic_error("Integrator: tolerance size mismatch");
+    std::copy(absolute.begin(), absolute.end(), N_VGetArrayPointer(m.atol));
+    check(CVodeSVtolerances(m.cvode, relative, m.atol), "CVodeSVtolerances");
+    // CVODE sets up its error weights for new tolerances only when it
+    // (re)starts: restart here, as after an event (with the last step).
+    IntegratorStats done = m.current();
+    done.events = done.reinitialisations = 0;
+    m.finished += done;
+    ++m.reinits;
+    sunrealtype h_last = 0;
+    check(CVodeGetLastStep(m.cvode, &h_last), "CVodeGetLastStep");
+    check(CVodeReInit(m.cvode, t_, m.y), "CVodeReInit");
+    if (h_last > 0)
+      check(CVodeSetInitStep(m.cvode, 0.1 * h_last), "CVodeSetInitStep");
+  }
+
   void Integrator::advance_to(double t_out)
   {
     Impl            &m = *impl_;

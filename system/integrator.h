@@ -69,6 +69,9 @@ namespace rectify::system
     /// Throws std::runtime_error with CVODE's flag name if the solver fails.
     void advance_to(double t_out);
 
+    /// New tolerances from here on (CVODE restarts, as after an event).
+    void set_tolerances(double relative, std::span<const double> absolute);
+
     double                  time() const { return t_; }
     std::span<const double> state() const;
     IntegratorStats         stats() const;

@@ -4,6 +4,8 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <stdexcept>
+#include <string>
 
 #include "common/case_file.h"
 
@@ -174,7 +176,7 @@ namespace rectify::system
     }
   } // namespace
 
-  RunResult run(Model &model, const RunOptions &options)
+  RunResult run(Model &model, const RunOptions &options, const StartState *start)
   {
     using namespace state;
     const auto   wall_start = std::chrono::steady_clock::now();
@@ -188,8 +190,21 @@ namespace rectify::system
       throw InputError("number of cycles must be >= 1");
 
     model.reset();
-    const std::vector<double> y0 = model.initial_state();
-    Integrator                integrator(model, 0.0, y0, integrator_options(model, options));
+    std::vector<double> y0 = model.initial_state();
+    if (start)
+      {
+        if (start->y.size() != y0.size())
+          throw std::logic_error("run: the start state has " + std::to_string(start->y.size()) +
+                                 " entries, the model " + std::to_string(y0.size()));
+        y0 = start->y;
+        for (std::size_t v = 0; v < 2; ++v)
+          model.set_closed(v, start->closed[v]);
+      }
+    // Settling may run at a looser tolerance than the measured cycles.
+    RunOptions startup_options = options;
+    if (options.settle && options.startup_relative_tolerance > 0)
+      startup_options.relative_tolerance = options.startup_relative_tolerance;
+    Integrator integrator(model, 0.0, y0, integrator_options(model, startup_options));
 
     RunResult result;
     result.frequency_Hz = f;
@@ -284,6 +299,11 @@ namespace rectify::system
                 result.settled           = done;
                 result.n_startup_cycles  = cycle;
                 measuring                = true;
+                if (startup_options.relative_tolerance != options.relative_tolerance)
+                  {
+                    const IntegratorOptions io = integrator_options(model, options);
+                    integrator.set_tolerances(io.relative_tolerance, io.absolute_tolerances);
+                  }
                 window_start_state.assign(y.begin(), y.end());
                 window_start_time = integrator.time();
               }
@@ -326,23 +346,29 @@ namespace rectify::system
     result.n_seat_impacts            = model.n_seat_impacts();
     result.stats                     = integrator.stats();
 
-    // Volume balances over the whole run (from rest): each holds exactly for
-    // the equations, so what is left is the integration error.
-    //   outlet valve:  V_out = C_h dp_h (+ C_node dp_node, inertial line) + A_po dx_act
-    //   inlet valve:   V_in  = -C_acc dp_acc - C_l dp_l + A_po dx_act
-    //   chamber:       C_ch dp_ch = A_pi dx_p + V_in - V_out
-    const double scale = std::max({std::abs(y[outlet_volume]), std::abs(y[inlet_volume]),
-                                   c.A_pi * std::abs(y[piston_x]), c.A_pi * 1e-9});
-    //   (C p is the node's stored volume, with free air its integral: Model::stored_volume)
-    const double node_volume = y.size() > line_node_p ? model.stored_volume(3, y[line_node_p]) : 0.0;
-    const double e_out =
-      y[outlet_volume] - (model.stored_volume(1, y[high_p]) + node_volume + c.A_po * y[actuator_x]);
-    const double e_in = y[inlet_volume] - (-c.C_acc * y[accumulator_p] -
-                                           model.stored_volume(2, y[low_p]) + c.A_po * y[actuator_x]);
-    const double e_ch = model.stored_volume(0, y[chamber_p]) -
-                        (c.A_pi * y[piston_x] + y[inlet_volume] - y[outlet_volume]);
+    // Volume balances over the run: each holds exactly for the equations, so
+    // what is left is the integration error. With Delta the change from the
+    // run's start (from rest: the values themselves),
+    //   outlet valve:  Delta V_out = Delta(stored_h (+ stored_node, inertial line)) + A_po Delta x_act
+    //   inlet valve:   Delta V_in  = -C_acc Delta p_acc - Delta stored_l + A_po Delta x_act
+    //   chamber:       Delta stored_ch = A_pi Delta x_p + Delta V_in - Delta V_out
+    // (a node's stored volume is the integral of its compliance, with free
+    // air not linear in p: Model::stored_volume).
+    const auto   dy    = [&](std::size_t i) { return y[i] - y0[i]; };
+    const auto   dstored = [&](int node, std::size_t i) {
+      return model.stored_volume(node, y[i]) - model.stored_volume(node, y0[i]);
+    };
+    const double scale = std::max({std::abs(dy(outlet_volume)), std::abs(dy(inlet_volume)),
+                                   c.A_pi * std::abs(y[piston_x] - y0[piston_x]), c.A_pi * 1e-9});
+    const double node_volume = y.size() > line_node_p ? dstored(3, line_node_p) : 0.0;
+    const double e_out = dy(outlet_volume) - (dstored(1, high_p) + node_volume + c.A_po * dy(actuator_x));
+    const double e_in  = dy(inlet_volume) -
+                        (-c.C_acc * dy(accumulator_p) - dstored(2, low_p) + c.A_po * dy(actuator_x));
+    const double e_ch  = dstored(0, chamber_p) - (c.A_pi * dy(piston_x) + dy(inlet_volume) - dy(outlet_volume));
     result.volume_balance_rel_error =
       std::max({std::abs(e_out), std::abs(e_in), std::abs(e_ch)}) / scale;
+    result.end_state.y.assign(y.begin(), y.end());
+    result.end_state.closed = {model.closed(0), model.closed(1)};
 
     result.min_absolute_chamber_pressure_Pa = c.p_bias + min_p_ch;
     if (result.min_absolute_chamber_pressure_Pa < 0.0)

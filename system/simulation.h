@@ -3,6 +3,7 @@
 #pragma once
 
 #include <nlohmann/json.hpp>
+#include <array>
 #include <functional>
 #include <optional>
 
@@ -23,12 +24,27 @@ namespace rectify::system
     bool        record             = false; ///< keep a time series
     std::size_t samples_per_cycle  = 200;
     double      relative_tolerance = 1e-6;
+    /// CVODE's relative tolerance while settling (0: relative_tolerance):
+    /// a looser one reaches the settled response in fewer steps; the measured
+    /// cycles always use relative_tolerance (docs/benchmarks.md).
+    double      startup_relative_tolerance = 0;
     double      absolute_tolerance_factor = 10.0;
     bool        finite_difference_jacobian = false;
     long        max_steps_per_cycle        = 1000000;
     /// Called after every finished cycle with (cycles done, cycles planned;
     /// 0 while settling). For progress displays.
     std::function<void(std::size_t, std::size_t)> on_cycle;
+  };
+
+  /// Where a run starts when not from rest: the continuous state and each
+  /// valve's discrete state (closed on its seat). A state taken at the end of
+  /// a whole cycle of a sine drive is at the drive's phase 0, where a run
+  /// starts: what a sweep's continuation uses (the next frequency starts
+  /// where the last one settled).
+  struct StartState
+  {
+    std::vector<double> y;
+    std::array<bool, 2> closed{true, true};
   };
 
   struct RunResult
@@ -59,13 +75,16 @@ namespace rectify::system
     std::size_t n_samples_beyond_map = 0;
     std::vector<std::string> warnings;
     std::optional<CsvTable> series;
+    StartState  end_state; ///< the state at the end of the run (a whole number of cycles)
 
     nlohmann::json to_json() const;
   };
 
-  /// Runs the model from rest (all pressures at the bias, valves closed).
-  /// Model::reset() is called first, so one Model serves many runs.
-  RunResult run(Model &model, const RunOptions &options);
+  /// Runs the model from rest (all pressures at the bias, valves closed), or
+  /// from `start` if given (its state must have the model's size). Times are
+  /// counted from the run's start either way; the volume balances are taken
+  /// over the run. Model::reset() is called first, so one Model serves many runs.
+  RunResult run(Model &model, const RunOptions &options, const StartState *start = nullptr);
 
   /// Integrator options from the model and the run options.
   IntegratorOptions integrator_options(const Model &model, const RunOptions &options);

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <algorithm>
 #include <functional>
 #include <mutex>
 #include <sstream>
@@ -119,6 +120,118 @@ namespace rectify::system
       std::snprintf(buf, sizeof(buf), "%.17g", f);
       return series + "@" + buf;
     }
+
+    std::string state_csv_header() { return "key,outlet_closed,inlet_closed,state"; }
+
+    /// One end state as a CSV row: the point's key, the valves' discrete
+    /// states and the continuous state, separated by spaces (exact round trip).
+    std::string to_state_row(const std::string &point_key, const StartState &s)
+    {
+      std::string row = point_key + "," + (s.closed[0] ? "1" : "0") + "," + (s.closed[1] ? "1" : "0") + ",";
+      char        buf[32];
+      for (std::size_t i = 0; i < s.y.size(); ++i)
+        {
+          std::snprintf(buf, sizeof(buf), "%s%.17g", i ? " " : "", s.y[i]);
+          row += buf;
+        }
+      return row;
+    }
+
+    bool parse_state(const std::string &row, std::string &point_key, StartState &s)
+    {
+      std::istringstream       in(row);
+      std::vector<std::string> cell;
+      std::string              c;
+      while (std::getline(in, c, ','))
+        cell.push_back(c);
+      if (cell.size() != 4 || (cell[1] != "0" && cell[1] != "1") || (cell[2] != "0" && cell[2] != "1"))
+        return false;
+      point_key   = cell[0];
+      s.closed[0] = cell[1] == "1";
+      s.closed[1] = cell[2] == "1";
+      s.y.clear();
+      std::istringstream values(cell[3]);
+      std::string        v;
+      try
+        {
+          while (values >> v)
+            s.y.push_back(std::stod(v));
+        }
+      catch (const std::exception &)
+        {
+          return false;
+        }
+      return !s.y.empty();
+    }
+
+    /// The start of frequency f from the chain's previous points (one or
+    /// two, ascending): the last end state, with the slow states (load
+    /// velocity, high, low and accumulator pressure) extrapolated along the
+    /// secant through the last two. Not the velocity of the no-flow case's
+    /// 1e12 kg output: it would keep any speed given to it. The fast states (piston, reeds, chamber)
+    /// are left as they were: extrapolating them could put a reed through its seat.
+    StartState predicted_start(const std::vector<std::pair<double, StartState>> &previous, double f,
+                               Scenario scenario)
+    {
+      StartState start = previous.back().second;
+      if (previous.size() < 2)
+        return start;
+      const auto &[fa, a] = previous[previous.size() - 2];
+      const auto &[fb, b] = previous.back();
+      if (a.y.size() != b.y.size() || fb == fa)
+        return start;
+      const double s = (f - fb) / (fb - fa);
+      for (std::size_t i : {std::size_t(state::actuator_v), std::size_t(state::high_p),
+                            std::size_t(state::low_p), std::size_t(state::accumulator_p)})
+        if (i != state::actuator_v || scenario == Scenario::loaded) // no-flow: the output held
+          start.y[i] = b.y[i] + s * (b.y[i] - a.y[i]);
+      return start;
+    }
+
+    /// A run of frequencies of one series, each started from its lower neighbour's end.
+    struct Chain
+    {
+      SweepSeries         series;
+      std::vector<double> frequencies; ///< ascending
+      double              cost = 0;    ///< estimated simulated time [s]
+    };
+
+    /// The series' frequencies, ascending, cut into `n_chains` runs of about
+    /// equal cost (0: every frequency its own chain, from rest). A run's cost
+    /// goes with its simulated time: (measured cycles + start-up) / f, where
+    /// a start from rest needs about 15 + f / 4 cycles (the load's speed-up,
+    /// measured on the reference case) and a continued one about 20.
+    std::vector<Chain> make_chains(const SweepSeries &series, std::vector<double> f,
+                                   std::size_t n_chains, std::size_t n_cycles)
+    {
+      std::sort(f.begin(), f.end());
+      f.erase(std::unique(f.begin(), f.end()), f.end());
+      const double m = static_cast<double>(n_cycles);
+      const auto cold = [&](double x) { return (m + 15.0 + 0.25 * x) / x; };
+      const auto warm = [&](double x) { return (m + 20.0) / x; };
+      std::vector<Chain> chains;
+      if (n_chains == 0)
+        {
+          for (double x : f)
+            chains.push_back({series, {x}, cold(x)});
+          return chains;
+        }
+      double total = 0;
+      for (std::size_t i = 0; i < f.size(); ++i)
+        total += i == 0 ? cold(f[i]) : warm(f[i]);
+      const double target = total / static_cast<double>(std::min(n_chains, f.size()));
+      for (double x : f)
+        {
+          if (chains.empty() || (chains.back().cost >= target && chains.size() < n_chains))
+            chains.push_back({series, {x}, cold(x)});
+          else
+            {
+              chains.back().frequencies.push_back(x);
+              chains.back().cost += warm(x);
+            }
+        }
+      return chains;
+    }
   } // namespace
 
   SweepResult run_sweep(const SystemParameters &parameters, const SweepOptions &options,
@@ -141,8 +254,10 @@ namespace rectify::system
                                   {"settle_tolerance", options.run.settle_tolerance},
                                   {"max_startup_cycles", options.run.max_startup_cycles},
                                   {"relative_tolerance", options.run.relative_tolerance},
+                                  {"startup_relative_tolerance", options.run.startup_relative_tolerance},
                                   {"absolute_tolerance_factor", options.run.absolute_tolerance_factor},
                                   {"finite_difference_jacobian", options.run.finite_difference_jacobian},
+                                  {"chains", options.chains},
                                   {"parameters", parameters.to_json()},
                                   {"resistance_map_hash", file_hash(parameters.valves.resistance_map)}};
     for (std::size_t v = 0; v < 2; ++v) // a map set's manifest holds its tables' hashes
@@ -161,25 +276,34 @@ namespace rectify::system
           done[key(p.series, p.frequency_Hz)] = p;
       }
 
-    struct Job
-    {
-      SweepSeries series;
-      double      frequency;
-    };
-    std::vector<Job> jobs;
+    // Continuation: each series' frequencies, ascending, in chains; within a
+    // chain every frequency starts from the state its lower neighbour ended
+    // in, its slow states (load velocity, high, low and accumulator pressures)
+    // moved along the secant through the last two (a predictor). Each
+    // frequency's end state is checkpointed beside its result, so a resumed
+    // sweep continues exactly as an uninterrupted one would.
+    Checkpoint states(out_dir, "sweep-states", fingerprint, state_csv_header());
+    std::map<std::string, StartState> end_states;
+    for (const auto &row : states.finished_rows())
+      {
+        std::string key_text;
+        StartState  st;
+        if (parse_state(row, key_text, st))
+          end_states[key_text] = std::move(st);
+      }
+
+    std::vector<Chain> chains;
     for (const auto &s : options.series)
-      for (double f : options.frequencies_Hz)
-        if (!done.count(key(s.name, f)))
-          jobs.push_back({s, f});
-    // Longest jobs first, for a balanced finish. A run's cost goes with its
-    // simulated time: (start-up + measured cycles) / f, where the start-up
-    // grows about as f / 4 cycles (measured on the reference case), so the
-    // lowest frequencies are the long poles.
-    const auto cost = [&](const Job &j) {
-      return (static_cast<double>(options.run.n_cycles) + 15.0 + 0.25 * j.frequency) / j.frequency;
-    };
-    std::stable_sort(jobs.begin(), jobs.end(),
-                     [&](const Job &a, const Job &b) { return cost(a) > cost(b); });
+      for (auto &c : make_chains(s, options.frequencies_Hz, options.chains, options.run.n_cycles))
+        {
+          bool all_done = true;
+          for (double f : c.frequencies)
+            all_done = all_done && done.count(key(s.name, f));
+          if (!all_done)
+            chains.push_back(std::move(c));
+        }
+    std::stable_sort(chains.begin(), chains.end(),
+                     [](const Chain &a, const Chain &b) { return a.cost > b.cost; });
 
     SweepResult result;
     result.n_resumed = done.size();
@@ -191,7 +315,50 @@ namespace rectify::system
     std::exception_ptr       failure;
     const unsigned           n_threads = std::max(
       1u, std::min<unsigned>(options.jobs ? options.jobs : std::thread::hardware_concurrency(),
-                             static_cast<unsigned>(jobs.size())));
+                             static_cast<unsigned>(chains.size())));
+
+    auto run_point = [&](const SweepSeries &series, double frequency, const StartState *start) {
+      SystemParameters p = parameters;
+      p.reed.stiffness_N_per_m *= series.stiffness_factor;
+      p.reed.effective_mass_kg *= series.mass_factor;
+      Model model(p, load_valve_maps(p), series.valves, options.scenario,
+                  Drive::sine(frequency, options.current_pp_A, options.current_bias_A));
+      if (start && start->y.size() != model.n_states())
+        start = nullptr; // a checkpoint of another model size: start from rest
+      RunResult r = run(model, options.run, start);
+      SweepPoint pt{series.name,
+                    frequency,
+                    r.stored_pressure_Pa,
+                    r.mean_velocity_m_per_s,
+                    r.settled,
+                    r.metric_stderr,
+                    r.regime,
+                    r.n_startup_cycles,
+                    r.n_measured_cycles,
+                    r.wall_time_s,
+                    r.volume_balance_rel_error,
+                    r.stats.steps,
+                    r.stats.rhs_evaluations,
+                    r.stats.jacobian_evaluations,
+                    r.stats.events,
+                    r.warnings.size()};
+      // The state first: a point whose row is written always has its state.
+      states.append(to_state_row(key(series.name, frequency), r.end_state));
+      checkpoint.append(to_csv_row(pt));
+      {
+        std::lock_guard<std::mutex> lock(mutex);
+        done[key(pt.series, pt.frequency_Hz)]       = pt;
+        end_states[key(pt.series, pt.frequency_Hz)] = r.end_state;
+      }
+      char what[160];
+      std::snprintf(what, sizeof(what), "%s %.4g Hz: %s %.4g, %zu+%zu cycles, %.2f s",
+                    pt.series.c_str(), pt.frequency_Hz,
+                    options.scenario == Scenario::no_flow ? "p_str [Pa]" : "v [m/s]",
+                    options.scenario == Scenario::no_flow ? pt.stored_pressure_Pa :
+                                                            pt.mean_velocity_m_per_s,
+                    pt.startup_cycles, pt.measured_cycles, pt.wall_time_s);
+      progress.step(what);
+    };
 
     auto worker = [&]() {
       try
@@ -199,49 +366,42 @@ namespace rectify::system
           while (true)
             {
               const std::size_t i = next++;
-              if (i >= jobs.size())
+              if (i >= chains.size())
                 return;
-              {
-                std::lock_guard<std::mutex> lock(mutex);
-                if (failure)
-                  return;
-              }
-              const Job       &job = jobs[i];
-              SystemParameters p   = parameters;
-              p.reed.stiffness_N_per_m *= job.series.stiffness_factor;
-              p.reed.effective_mass_kg *= job.series.mass_factor;
-              Model model(p, load_valve_maps(p), job.series.valves, options.scenario,
-                          Drive::sine(job.frequency, options.current_pp_A, options.current_bias_A));
-              const RunResult r = run(model, options.run);
-              SweepPoint      pt{job.series.name,
-                            job.frequency,
-                            r.stored_pressure_Pa,
-                            r.mean_velocity_m_per_s,
-                            r.settled,
-                            r.metric_stderr,
-                            r.regime,
-                            r.n_startup_cycles,
-                            r.n_measured_cycles,
-                            r.wall_time_s,
-                            r.volume_balance_rel_error,
-                            r.stats.steps,
-                            r.stats.rhs_evaluations,
-                            r.stats.jacobian_evaluations,
-                            r.stats.events,
-                            r.warnings.size()};
-              checkpoint.append(to_csv_row(pt));
-              {
-                std::lock_guard<std::mutex> lock(mutex);
-                done[key(pt.series, pt.frequency_Hz)] = pt;
-              }
-              char what[160];
-              std::snprintf(what, sizeof(what), "%s %.4g Hz: %s %.4g, %zu+%zu cycles, %.2f s",
-                            pt.series.c_str(), pt.frequency_Hz,
-                            options.scenario == Scenario::no_flow ? "p_str [Pa]" : "v [m/s]",
-                            options.scenario == Scenario::no_flow ? pt.stored_pressure_Pa
-                                                                  : pt.mean_velocity_m_per_s,
-                            pt.startup_cycles, pt.measured_cycles, pt.wall_time_s);
-              progress.step(what);
+              const Chain &chain = chains[i];
+              // Two previous points of the chain (frequency, end state) for the predictor.
+              std::vector<std::pair<double, StartState>> previous;
+              for (double f : chain.frequencies)
+                {
+                  {
+                    std::lock_guard<std::mutex> lock(mutex);
+                    if (failure)
+                      return;
+                    const std::string k = key(chain.series.name, f);
+                    if (done.count(k))
+                      {
+                        // Finished before a resume: continue from its state.
+                        if (const auto it = end_states.find(k); it != end_states.end())
+                          previous.emplace_back(f, it->second);
+                        else
+                          previous.clear();
+                        continue;
+                      }
+                  }
+                  if (previous.empty())
+                    run_point(chain.series, f, nullptr);
+                  else
+                    {
+                      const StartState start = predicted_start(previous, f, options.scenario);
+                      run_point(chain.series, f, &start);
+                    }
+                  {
+                    std::lock_guard<std::mutex> lock(mutex);
+                    previous.emplace_back(f, end_states.at(key(chain.series.name, f)));
+                  }
+                  if (previous.size() > 2)
+                    previous.erase(previous.begin());
+                }
             }
         }
       catch (...)
@@ -252,7 +412,7 @@ namespace rectify::system
         }
     };
     std::vector<std::thread> threads;
-    for (unsigned t = 0; t < n_threads && !jobs.empty(); ++t)
+    for (unsigned t = 0; t < n_threads && !chains.empty(); ++t)
       threads.emplace_back(worker);
     for (auto &t : threads)
       t.join();

@@ -35,6 +35,10 @@ namespace rectify::system
     double                   current_pp_A = 20, current_bias_A = 10;
     RunOptions               run; ///< settle, n_cycles (measured), tolerances
     unsigned                 jobs  = 0; ///< 0: all cores
+    /// Continuation: each series' frequencies run in this many chains, each
+    /// frequency starting where its lower neighbour settled (0: every
+    /// frequency from rest). A result depends on it (not on `jobs`).
+    std::size_t              chains = 0;
     bool                     quiet = false;
   };
 

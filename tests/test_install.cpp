@@ -8,6 +8,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <sys/wait.h>
 
 #include "tests/cli_helpers.h"
 
@@ -71,5 +72,41 @@ TEST(Install, TheInstalledToolRunsFromAnyFolderOnItsOwnReferenceCase)
   const auto version = read(dir / "version.log");
   for (const char *word : {"rectify " RECTIFY_VERSION, "revision", "deal.II", "PETSc", "SUNDIALS", "TetGen", "CGAL"})
     EXPECT_NE(version.find(word), std::string::npos) << version;
+
+  // The finite-element commands, through the front end, from rectify-fe.
+  EXPECT_TRUE(std::filesystem::exists(prefix / "bin" / "rectify-fe"));
+  ASSERT_EQ(run(in_elsewhere + " map-stiffness --help", dir / "fe.log"), 0) << read(dir / "fe.log");
+  EXPECT_NE(read(dir / "fe.log").find("--thickness"), std::string::npos) << read(dir / "fe.log");
+  std::filesystem::remove_all(dir);
+}
+
+// The system commands' executable loads no finite-element library (its
+// start-up is a few milliseconds; docs/benchmarks.md), the FE one does.
+TEST(Install, TheFrontEndLoadsNoFiniteElementLibrary)
+{
+  const auto dir = scratch("front-end");
+  const std::filesystem::path front_end(RECTIFY_BINARY);
+  const auto fe = front_end.parent_path() / "rectify-fe";
+  ASSERT_EQ(run("ldd " + front_end.string(), dir / "front.log"), 0);
+  ASSERT_EQ(run("ldd " + fe.string(), dir / "fe.log"), 0);
+  const auto front = read(dir / "front.log"), back = read(dir / "fe.log");
+  for (const char *library : {"libdeal.ii", "libpetsc", "libmpi", "libtet", "libslepc", "libopenblas"})
+    EXPECT_EQ(front.find(library), std::string::npos) << library << " in\n" << front;
+  for (const char *library : {"libdeal.ii", "libtet"})
+    EXPECT_NE(back.find(library), std::string::npos) << library << " not in\n" << back;
+  EXPECT_NE(front.find("libsundials_cvode"), std::string::npos) << front;
+
+  // An FE command given to the front end runs in rectify-fe with the same
+  // arguments and exit code; the help names `rectify`.
+  EXPECT_EQ(run(front_end.string() + " stokes --help", dir / "help.log"), 0);
+  const auto help = read(dir / "help.log");
+  EXPECT_NE(help.find("--flow-rate"), std::string::npos) << help;
+  EXPECT_EQ(help.find("rectify-fe stokes"), std::string::npos) << help;
+  const int status = run(front_end.string() + " stiffness --case " + (dir / "missing.toml").string() +
+                          " --out " + (dir / "x").string(), dir / "bad.log");
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 2) << read(dir / "bad.log");
+  EXPECT_NE(read(dir / "bad.log").find("missing.toml"), std::string::npos) << read(dir / "bad.log");
+  EXPECT_FALSE(std::filesystem::exists(dir / "x"));
   std::filesystem::remove_all(dir);
 }

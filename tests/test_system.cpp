@@ -615,3 +615,123 @@ TEST(Cli, InterruptedSweepResumesWithoutRepeatingOrLosingRuns)
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.output.find("other settings"), std::string::npos) << r.output;
 }
+
+TEST(Model, ARunFromAnotherRunsEndContinuesItsTrajectory)
+{
+  // 6 cycles from rest, against 3 cycles from rest and then 3 more from the
+  // first part's end state (what a sweep's continuation does): the same
+  // trajectory to the integration tolerance, and the continued part's own
+  // volume balances close (they are taken over the run, not from rest).
+  const auto p = reference();
+  for (auto scenario : {Scenario::no_flow, Scenario::loaded})
+    {
+      Model      whole = make_model(p, ValveModel::dynamic, scenario, 200);
+      Model      first = make_model(p, ValveModel::dynamic, scenario, 200);
+      Model      then  = make_model(p, ValveModel::dynamic, scenario, 200);
+      auto       o     = options(p, 6);
+      o.relative_tolerance = 1e-8;
+      const auto a     = run(whole, o);
+      o.n_cycles       = 3;
+      const auto b     = run(first, o);
+      const auto c     = run(then, o, &b.end_state);
+      ASSERT_EQ(c.end_state.y.size(), a.end_state.y.size());
+      const auto typical = whole.typical_sizes();
+      for (std::size_t i = 0; i < a.end_state.y.size(); ++i)
+        EXPECT_NEAR(c.end_state.y[i], a.end_state.y[i], 1e-3 * typical[i]) << "state " << i;
+      EXPECT_LT(c.volume_balance_rel_error, 1e-8) << to_string(scenario);
+      EXPECT_GT(std::abs(c.end_state.y[state::outlet_volume] - b.end_state.y[state::outlet_volume]), 0.0);
+      // The window's means are the second half's: 2 x whole - first.
+      const double second_half = 2 * a.stored_pressure_Pa - b.stored_pressure_Pa;
+      EXPECT_NEAR(c.stored_pressure_Pa, second_half, 1e-3 * std::abs(a.stored_pressure_Pa));
+    }
+  // A state of the wrong size is a programming error, not a silent restart.
+  Model      m = make_model(p, ValveModel::dynamic, Scenario::no_flow, 200);
+  StartState wrong;
+  wrong.y.assign(3, 0.0);
+  EXPECT_THROW(run(m, options(p, 1), &wrong), std::logic_error);
+}
+
+TEST(Model, ALooserStartUpToleranceKeepsThePeriodicAnswer)
+{
+  // Settling at rtol 1e-4 and measuring at the case's rtol: the same stored
+  // pressure and velocity (periodic points, within the 0.5 % of the
+  // tolerance study) in fewer steps.
+  const auto p = reference();
+  for (auto [scenario, f] : {std::pair{Scenario::no_flow, 300.0}, std::pair{Scenario::loaded, 150.0}})
+    {
+      Model      m1 = make_model(p, ValveModel::ideal, scenario, f);
+      Model      m2 = make_model(p, ValveModel::ideal, scenario, f);
+      auto       o  = options(p, 20);
+      o.settle      = true;
+      const auto tight = run(m1, o);
+      o.startup_relative_tolerance = 1e-4;
+      const auto loose = run(m2, o);
+      ASSERT_EQ(tight.regime, "periodic") << to_string(scenario);
+      const double a = scenario == Scenario::no_flow ? tight.stored_pressure_Pa : tight.mean_velocity_m_per_s;
+      const double b = scenario == Scenario::no_flow ? loose.stored_pressure_Pa : loose.mean_velocity_m_per_s;
+      EXPECT_NEAR(b, a, 5e-3 * std::abs(a)) << to_string(scenario);
+      EXPECT_LT(loose.stats.steps, tight.stats.steps) << to_string(scenario);
+      EXPECT_LT(loose.volume_balance_rel_error, 1e-6);
+    }
+}
+
+TEST(Cli, AContinuedSweepResumesExactlyAsAnUninterruptedOne)
+{
+  // --chains 1: every frequency starts where its lower neighbour ended. Cut
+  // after two runs (the third's state written, its result not), a resumed
+  // sweep continues from the second's checkpointed state: the same numbers
+  // to the last digit. Ideal valves: periodic, so continuation must also
+  // agree with starts from rest (0.5 %), in fewer start-up cycles.
+  const auto dir = scratch("sweep_chain");
+  const std::string common = "sweep --scenario no-flow --from 100 --to 400 --n 4 --spacing linear --cycles 10 "
+                             "--series ideal --quiet --jobs 1";
+  auto r = rectify_cli(common + " --chains 1 --out " + (dir / "chain").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream in1(dir / "chain" / "summary.json");
+  const auto    first = nlohmann::json::parse(in1);
+
+  const auto cut = [&](const std::filesystem::path &file, std::size_t keep) {
+    std::ifstream            in(file);
+    std::vector<std::string> lines;
+    for (std::string line; std::getline(in, line);)
+      lines.push_back(line);
+    ASSERT_EQ(lines.size(), 5u) << file; // header and four runs
+    std::string text;
+    for (std::size_t i = 0; i <= keep; ++i)
+      text += lines[i] + "\n";
+    write_file_atomic(file, text);
+  };
+  cut(dir / "chain" / "sweep-partial.csv", 2);
+  cut(dir / "chain" / "sweep-states.csv", 3);
+  std::filesystem::remove(dir / "chain" / "summary.json");
+  r = rectify_cli(common + " --chains 1 --out " + (dir / "chain").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream in2(dir / "chain" / "summary.json");
+  const auto    second = nlohmann::json::parse(in2);
+  EXPECT_EQ(second["runs_resumed"], 2);
+  EXPECT_EQ(second["stored_pressure_Pa"], first["stored_pressure_Pa"]);
+
+  r = rectify_cli(common + " --out " + (dir / "cold").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream in3(dir / "cold" / "summary.json");
+  const auto    cold = nlohmann::json::parse(in3);
+  for (std::size_t i = 0; i < 4; ++i)
+    EXPECT_NEAR(first["stored_pressure_Pa"][i].get<double>(), cold["stored_pressure_Pa"][i].get<double>(),
+                5e-3 * cold["stored_pressure_Pa"][i].get<double>());
+  const auto startup = [](const std::filesystem::path &runs) {
+    std::ifstream in(runs);
+    std::string   line;
+    std::getline(in, line);
+    std::size_t total = 0;
+    while (std::getline(in, line))
+      {
+        std::vector<std::string> cell;
+        std::stringstream        s(line);
+        for (std::string c; std::getline(s, c, ',');)
+          cell.push_back(c);
+        total += std::stoul(cell.at(7));
+      }
+    return total;
+  };
+  EXPECT_LT(startup(dir / "chain" / "sweep-runs.csv"), startup(dir / "cold" / "sweep-runs.csv"));
+}
