@@ -456,9 +456,12 @@ namespace rectify::app
       cmd->add_option("--training-fraction", o->options.training_fraction,
                       "part of each run the fit sees; the rest is held out")->capture_default_str();
       cmd->add_option("--max-evaluations", o->options.max_evaluations, "optimiser evaluations per candidate")
+        ->check(CLI::Range(1, 1000000))
         ->capture_default_str();
       cmd->add_option("--threads", o->options.threads, "candidates fitted at once (0: all cores)");
-      cmd->add_option("--rtol", o->options.relative_tolerance, "CVODE relative tolerance")->capture_default_str();
+      cmd->add_option("--rtol", o->options.relative_tolerance, "CVODE relative tolerance")
+        ->check(CLI::Range(1e-12, 1e-2))
+        ->capture_default_str();
       cmd->add_option("--start", o->options.start,
                       "where each record starts: auto (the best over its first two cycles), rest, record "
                       "(the state its first samples show), steady (static state under its first drive "

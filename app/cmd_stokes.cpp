@@ -25,7 +25,7 @@ namespace rectify::app
       std::string opening;
       bool        no_vtu = false;
       bool        navier_stokes = false;
-      double      flow_rate     = 0; ///< 0: the case's
+      double      flow_rate     = std::nan(""); ///< not given: the case's (NaN cannot be typed: app/command_helpers.cpp)
     };
 
     nlohmann::json result_json(const stokes::StokesResult &r)
@@ -63,7 +63,7 @@ namespace rectify::app
       const auto     mp      = mesher::MeshParameters::from_case(file);
       auto           fp      = stokes::FlowParameters::from_case(file);
       const double   opening = mesher::parse_length(o.opening, "--opening");
-      if (o.flow_rate != 0)
+      if (!std::isnan(o.flow_rate))
         {
           if (!(o.flow_rate > 0) || !std::isfinite(o.flow_rate))
             throw InputError("--flow-rate = " + format_number(o.flow_rate) + ": must be positive (m^3/s)");
@@ -82,12 +82,13 @@ namespace rectify::app
                                  {"processes", std::to_string(mpi.size())},
                                  {"output", o.out_dir}});
       const auto valve = mesher::mesh_valve(mp, opening, root);
+      // The folder appears with the results: the solver makes it for its VTU
+      // output after solving, or here (no VTU); an interrupted solve leaves none.
       const std::filesystem::path out(o.out_dir);
-      if (root)
-        ensure_directory(out);
       const auto r = stokes::solve_stokes(valve.mesh, fp, o.no_vtu ? std::filesystem::path{} : out, true);
       if (!root)
         return;
+      ensure_directory(out);
       const double mu = fp.fluid.viscosity_Pa_s, Q = fp.settings.flow_rate_m3_per_s;
       nlohmann::json summary = result_json(r);
       summary["command"]         = "stokes";

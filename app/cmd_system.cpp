@@ -256,6 +256,8 @@ namespace rectify::app
       s.run.settle             = true;
       s.run.n_cycles           = o.cycles;
       s.run.settle_tolerance   = o.settle_tolerance;
+      if (o.max_startup == 0)
+        throw InputError("--max-startup-cycles 0: must be >= 1 (a run of fixed length is `simulate`)");
       s.run.max_startup_cycles = o.max_startup;
       if (o.startup_rtol != 0 && !(o.startup_rtol >= p.solver.relative_tolerance && o.startup_rtol <= 1e-2))
         throw InputError("--startup-rtol " + format_number(o.startup_rtol) + ": must be 0 (the rtol, " +

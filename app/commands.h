@@ -12,8 +12,12 @@
 
 namespace rectify::app
 {
+  /// "" if `folder` can be created and written (tried, then undone), else why not.
+  std::string check_output_folder(const std::filesystem::path &folder);
+
   /// The options every subcommand has: --case FILE (default: the reference
-  /// case) and --out DIR (required).
+  /// case) and --out DIR (required; checked writable while the options are
+  /// read, before any work).
   void add_case_and_out(CLI::App &command, std::string &case_path, std::string &out_dir);
 
   /// Echoes a command's settings at start-up, one "name value" line each, on stderr.

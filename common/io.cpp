@@ -174,6 +174,12 @@ namespace rectify
             data.comments.push_back(line.substr(line.find('#') + 1));
             continue;
           }
+        // A data line without its line end is where a copy or a write was
+        // cut off, possibly inside a number ("1.2345" -> "1.23" still reads).
+        if (in.eof() && !data.columns.empty())
+          throw InputError("'" + name + "' line " + std::to_string(line_no) +
+                           ": the file ends inside this line (no line end after it): cut off? "
+                           "A complete file ends with a newline");
         auto cells = split(line);
         if (data.columns.empty())
           {

@@ -14,7 +14,7 @@ namespace rectify::diagnosis
   {
     if (!(o.noise >= 0 && o.noise < 1))
       throw InputError("--noise " + format_number(o.noise) + ": must be in [0, 1)");
-    if (!(o.drive_noise < 1) || std::isnan(o.drive_noise))
+    if (!std::isnan(o.drive_noise) && !(o.drive_noise >= 0 && o.drive_noise < 1))
       throw InputError("--drive-noise " + format_number(o.drive_noise) + ": must be in [0, 1)");
     if (!(o.frequency_Hz > 0) || !std::isfinite(o.frequency_Hz))
       throw InputError("--frequency " + format_number(o.frequency_Hz) + ": must be > 0");
@@ -22,6 +22,11 @@ namespace rectify::diagnosis
       throw InputError("--cycles " + std::to_string(o.cycles) + ": must be >= 2");
     if (o.samples_per_cycle < 8)
       throw InputError("--samples-per-cycle " + std::to_string(o.samples_per_cycle) + ": must be >= 8");
+    // About 200 bytes a sample (the record's columns, the model's series):
+    // 10^7 samples is 2 GB; more is refused rather than failing mid-run.
+    if (o.samples_per_cycle > 10000000 || o.cycles > 10000000 || o.samples_per_cycle * o.cycles > 10000000)
+      throw InputError("--cycles " + std::to_string(o.cycles) + " x --samples-per-cycle " +
+                       std::to_string(o.samples_per_cycle) + ": at most 10^7 samples in a record");
     if (o.drive != "auto" && o.drive != "current" && o.drive != "voltage")
       throw InputError("--drive '" + o.drive + "': current, voltage or auto");
 
@@ -30,6 +35,11 @@ namespace rectify::diagnosis
     if (o.effect != "none")
       {
         const auto          effect = find_effect(o.effect);
+        // An effect that cannot act in this run would leave it unchanged:
+        // the "answer" would name an effect the data cannot show.
+        const bool as_voltage = o.drive == "voltage" || (o.drive == "auto" && o.effect == "coil_dynamics");
+        if (const std::string why = effect->not_testable({o.scenario, as_voltage}); !why.empty())
+          throw InputError("--effect " + o.effect + " in a " + system::to_string(o.scenario) + " run: " + why);
         std::vector<double> values;
         for (const auto &spec : effect->parameters())
           {
@@ -88,7 +98,7 @@ namespace rectify::diagnosis
           mean += x / static_cast<double>(n);
         for (double x : v)
           var += (x - mean) * (x - mean) / static_cast<double>(n);
-        sd[columns[c]] = (c == 1 && o.drive_noise >= 0 ? o.drive_noise : o.noise) * std::sqrt(var);
+        sd[columns[c]] = (c == 1 && !std::isnan(o.drive_noise) ? o.drive_noise : o.noise) * std::sqrt(var);
       }
     SynthResult result{CsvTable(columns), {}};
     std::vector<double> row(columns.size());
@@ -102,7 +112,7 @@ namespace rectify::diagnosis
     result.answer = {{"effect", o.effect},
                      {"parameters", parameters},
                      {"noise", o.noise},
-                     {"drive_noise", o.drive_noise >= 0 ? o.drive_noise : o.noise},
+                     {"drive_noise", !std::isnan(o.drive_noise) ? o.drive_noise : o.noise},
                      {"noise_sd", sd},
                      {"seed", o.seed},
                      {"scenario", system::to_string(o.scenario)},

@@ -4,6 +4,7 @@
 // diagnosis workflow can be scored on data whose truth is known.
 #pragma once
 
+#include <cmath>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -20,7 +21,7 @@ namespace rectify::diagnosis
     std::string                   effect = "none";
     std::map<std::string, double> parameters; ///< by key; missing keys: the bounds' middle
     double                        noise = 0.01; ///< Gaussian, sd = noise x each column's RMS about its mean
-    double                        drive_noise = -1; ///< the same for the drive column; < 0: `noise`
+    double                        drive_noise = std::nan(""); ///< the same for the drive column; NaN (not given): `noise`
     unsigned long                 seed  = 1;
     system::Scenario              scenario = system::Scenario::no_flow;
     double                        frequency_Hz = 100;

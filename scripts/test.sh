@@ -1,12 +1,27 @@
 #!/usr/bin/env bash
 # Sets up (scripts/setup.sh) and runs the default test suite. Slow cases carry
 # the ctest label "slow" and run only with: scripts/test.sh --all
+#   scripts/test.sh --sanitize   the fast tests on a build with AddressSanitizer
+#                                and UndefinedBehaviorSanitizer (build-sanitize/;
+#                                docs/reliability.md)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
-cd build
-if [ "${1:-}" = "--all" ]; then
-  ctest -j"$(nproc)" --output-on-failure
-else
-  ctest -j"$(nproc)" --output-on-failure -LE slow
-fi
+case "${1:-}" in
+  --all)
+    cd build && ctest -j"$(nproc)" --output-on-failure ;;
+  --sanitize)
+    flags="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined"
+    cmake -S . -B build-sanitize -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+      -DCMAKE_CXX_FLAGS="$flags" -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined"
+    cmake --build build-sanitize -j"$(nproc)"
+    # Leaks are not checked: MPI and PETSc keep their allocations until exit.
+    # Any other report stops the test that made it.
+    export ASAN_OPTIONS=detect_leaks=0:abort_on_error=1:strict_string_checks=1
+    export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+    cd build-sanitize && ctest -j"$(nproc)" --output-on-failure -LE slow ;;
+  "")
+    cd build && ctest -j"$(nproc)" --output-on-failure -LE slow ;;
+  *)
+    echo "scripts/test.sh: unknown option '$1' (--all, --sanitize)" >&2; exit 2 ;;
+esac

@@ -752,6 +752,10 @@ namespace rectify::stokes
       kinds.push_back(DataComponentInterpretation::component_is_scalar);
       data_out.add_data_vector(physical_solution_, names, DataOut<3>::type_dof_data, kinds);
       data_out.build_patches(mapping_);
+      // The output folder is made here, once the solution exists.
+      if (Utilities::MPI::this_mpi_process(comm_) == 0)
+        std::filesystem::create_directories(vtu_dir);
+      MPI_Barrier(comm_);
       data_out.write_vtu_with_pvtu_record(vtu_dir.string() + "/", "flow", 0, comm_, 0, 0);
     }
 

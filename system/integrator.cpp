@@ -141,6 +141,23 @@ namespace rectify::system
         SUNContext_Free(&context);
     }
 
+    /// Restarts CVODE at (t, y) after a change of state or tolerances,
+    /// keeping the counters. With a fraction of the last step rather than
+    /// CVODE's cautious estimate: events (a reed on its seat) come many times
+    /// a cycle, and each restart would otherwise climb from a tiny step.
+    void restart(double t)
+    {
+      IntegratorStats done = current();
+      done.events = done.reinitialisations = 0;
+      finished += done;
+      ++reinits;
+      sunrealtype h_last = 0;
+      check(CVodeGetLastStep(cvode, &h_last), "CVodeGetLastStep");
+      check(CVodeReInit(cvode, t, y), "CVodeReInit");
+      if (h_last > 0)
+        check(CVodeSetInitStep(cvode, 0.1 * h_last), "CVodeSetInitStep");
+    }
+
     IntegratorStats current() const
     {
       IntegratorStats s;
@@ -223,16 +240,8 @@ namespace rectify::system
     std::copy(absolute.begin(), absolute.end(), N_VGetArrayPointer(m.atol));
     check(CVodeSVtolerances(m.cvode, relative, m.atol), "CVodeSVtolerances");
     // CVODE sets up its error weights for new tolerances only when it
-    // (re)starts: restart here, as after an event (with the last step).
-    IntegratorStats done = m.current();
-    done.events = done.reinitialisations = 0;
-    m.finished += done;
-    ++m.reinits;
-    sunrealtype h_last = 0;
-    check(CVodeGetLastStep(m.cvode, &h_last), "CVodeGetLastStep");
-    check(CVodeReInit(m.cvode, t_, m.y), "CVodeReInit");
-    if (h_last > 0)
-      check(CVodeSetInitStep(m.cvode, 0.1 * h_last), "CVodeSetInitStep");
+    // (re)starts: restart here, as after an event.
+    m.restart(t_);
   }
 
   void Integrator::advance_to(double t_out)
@@ -251,20 +260,7 @@ namespace rectify::system
         ++m.events;
         std::span<double> y(N_VGetArrayPointer(m.y), m.system.n_states());
         if (m.system.handle_events(t_, y, found))
-          {
-            IntegratorStats done = m.current();
-            done.events = done.reinitialisations = 0;
-            m.finished += done;
-            ++m.reinits;
-            // Restart with a fraction of the last step rather than CVODE's
-            // cautious estimate: events (a reed on its seat) come many times
-            // a cycle, and each restart would otherwise climb from a tiny step.
-            sunrealtype h_last = 0;
-            check(CVodeGetLastStep(m.cvode, &h_last), "CVodeGetLastStep");
-            check(CVodeReInit(m.cvode, t_, m.y), "CVodeReInit");
-            if (h_last > 0)
-              check(CVodeSetInitStep(m.cvode, 0.1 * h_last), "CVodeSetInitStep");
-          }
+          m.restart(t_);
       }
   }
 } // namespace rectify::system

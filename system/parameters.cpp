@@ -83,6 +83,19 @@ namespace rectify::system
         p.effective_mass_kg = at.mass_kg;
         p.source = path.string() + " at " + format_number(thickness) + " m (" + mass_column + ")";
       }
+    else if (f.has(t, "properties_thickness_m"))
+      throw InputError(f.where(t, "properties_thickness_m") + ": read only with properties_map (the "
+                       "reed map it picks a thickness from); without one, give stiffness_N_per_m and "
+                       "effective_mass_kg");
+    // The reed's own frequency: above 1 MHz (1e30 N/m on the reference mass:
+    // 7e17 Hz) no step CVODE can take resolves it; the model's fastest
+    // physical mode, the chamber's oil, is about 145 kHz.
+    const double f_reed = std::sqrt(p.stiffness_N_per_m / p.effective_mass_kg) / (2 * std::numbers::pi);
+    if (!(f_reed <= 1e6))
+      throw InputError(f.where(t, map.empty() ? "stiffness_N_per_m" : "properties_map") + ": k_r = " +
+                       format_number(p.stiffness_N_per_m) + " N/m with m_r = " +
+                       format_number(p.effective_mass_kg) + " kg gives the reed a natural frequency of " +
+                       format_number(f_reed) + " Hz; at most 1e6 Hz");
     p.damping_ratio     = f.real(t, "damping_ratio", p.damping_ratio, non_negative);
     p.pressure_area_m2  = f.real(t, "pressure_area_m2", p.pressure_area_m2, positive);
     p.restitution       = f.real(t, "restitution", p.restitution, Bounds{0.0, 1.0, true, false});
@@ -118,6 +131,13 @@ namespace rectify::system
                          "interpolation; remove " + key);
     p.resistance_map =
       f.resolve(f.text(t, "resistance_map", "thesis-resistance.csv")).string();
+    // A valve without a map set reads the R(x) map: a missing one that the
+    // case names is reported with the case file and the key, before any work
+    // (the default is looked for only by the commands that read it).
+    if ((p.map_set[0].empty() || p.map_set[1].empty()) && f.has(t, "resistance_map") &&
+        !std::filesystem::is_regular_file(p.resistance_map))
+      throw InputError(f.where(t, "resistance_map") + " = '" + f.text(t, "resistance_map", "thesis-resistance.csv") +
+                       "': no such file ('" + p.resistance_map + "', relative to the case file's folder)");
     p.interpolation = f.text(t, "interpolation", p.interpolation, {"monotone-cubic", "log-linear", "linear", "log-log"});
     p.out_of_range  = f.text(t, "out_of_range", p.out_of_range, {"hold", "error"});
     p.ideal_open_resistance_Pa_s_per_m3 = f.real(t, "ideal_open_resistance_Pa_s_per_m3",

@@ -1,0 +1,138 @@
+// Bad input refused before any work (issue 16): every numeric option checked
+// for its type, every output folder tried before the work, the option
+// parser's errors as exit code 2, and case keys that were accepted and
+// ignored or ended in a solver failure.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <string>
+
+#include "common/case_file.h"
+#include "common/io.h"
+#include "system/parameters.h"
+#include "tests/cli_helpers.h"
+
+using namespace rectify;
+using namespace rectify::test_support;
+
+namespace
+{
+  /// Runs `args`, expects exit code 2, every word of `named` in the message,
+  /// and no output folder `out` left behind.
+  void expect_refused(const std::string &args, const std::vector<std::string> &named,
+                      const std::filesystem::path &out)
+  {
+    const auto r = rectify_cli(args);
+    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
+    for (const auto &word : named)
+      EXPECT_NE(r.output.find(word), std::string::npos) << args << ": '" << word << "' not in\n" << r.output;
+    EXPECT_FALSE(std::filesystem::exists(out)) << args;
+  }
+} // namespace
+
+TEST(BadInput, NumericOptionsAreCheckedForTheirType)
+{
+  const auto dir = scratch("bad_numbers");
+  const auto out = dir / "out";
+  const std::string o = " --out " + out.string();
+  // A negative count is not read as 2^64 - 3 (it ran until killed).
+  expect_refused("simulate --cycles -3" + o, {"--cycles", "-3", "whole number"}, out);
+  expect_refused("synth --cycles -1" + o, {"--cycles", "-1"}, out);
+  expect_refused("sweep --n -2" + o, {"--n", "-2"}, out);
+  // NaN and infinities are refused, not taken for "not given".
+  expect_refused("simulate --current-pp nan" + o, {"--current-pp", "nan", "finite"}, out);
+  expect_refused("simulate --current-bias NaN" + o, {"--current-bias"}, out);
+  expect_refused("simulate --rtol inf" + o, {"--rtol", "inf", "finite"}, out);
+  expect_refused("synth --drive-noise -0.5" + o, {"--drive-noise", "-0.5"}, out);
+  expect_refused("synth --cycles 100000 --samples-per-cycle 1000" + o, {"10^7 samples"}, out);
+  expect_refused("sweep --max-startup-cycles 0 --n 2 --from 10 --to 20" + o, {"--max-startup-cycles"}, out);
+  expect_refused("simulate --frequency 12abc" + o, {"--frequency", "12abc", "not a number"}, out);
+  // The parser's own errors: exit 2 (was 104-114), and an unknown command named.
+  expect_refused("simulate --no-such-option 1" + o, {"--no-such-option"}, out);
+  expect_refused("simulate --frequency 10 --frequency 20" + o, {"--frequency"}, out);
+  expect_refused("simulat" + o, {"unknown command 'simulat'", "simulate"}, out);
+  expect_refused("stokes --flow-rate 0 --opening 100um" + o, {"--flow-rate", "positive"}, out);
+  expect_refused("stokes --flow-rate nan --opening 100um" + o, {"--flow-rate"}, out);
+  // --help and --version are not errors.
+  EXPECT_EQ(rectify_cli("--version").exit_code, 0);
+  EXPECT_EQ(rectify_cli("simulate --help").exit_code, 0);
+}
+
+TEST(BadInput, AnOutputFolderThatCannotBeWrittenIsFoundBeforeAnyWork)
+{
+  const auto dir = scratch("bad_out");
+  // diagnose ran every fit (minutes) before finding this.
+  expect_refused("diagnose --data " + (dir / "none.csv").string() + " --frequency 10 --out /proc/nonexistent/d",
+                 {"--out", "/proc/nonexistent/d"}, "/proc/nonexistent/d");
+  write_file_atomic(dir / "a-file", "x\n");
+  const auto r = rectify_cli("simulate --out " + (dir / "a-file").string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("not a folder"), std::string::npos) << r.output;
+  // The check leaves nothing behind: the folder appears with the results.
+  const auto nested = dir / "new" / "deeper";
+  ASSERT_EQ(rectify_cli("simulate --cycles 0 --out " + nested.string()).exit_code, 2);
+  EXPECT_FALSE(std::filesystem::exists(dir / "new"));
+  for (const auto &entry : std::filesystem::directory_iterator(dir))
+    EXPECT_EQ(entry.path().filename().string().find(".rectify-write-test"), std::string::npos);
+}
+
+TEST(BadInput, CaseKeysThatWereIgnoredOrCrashedTheSolverAreRefused)
+{
+  const auto dir = scratch("bad_keys");
+  const auto out = dir / "out";
+  const auto run = [&](const std::string &name, const std::string &text) {
+    write_file_atomic(dir / name, text);
+    return "simulate --case " + (dir / name).string() + " --out " + out.string();
+  };
+  // Accepted and ignored before.
+  expect_refused(run("t.toml", "[reed]\nproperties_thickness_m = 1e-4\n"),
+                 {"t.toml", "[reed] properties_thickness_m", "properties_map"}, out);
+  // A CVODE failure before: a reed mode no step can resolve.
+  expect_refused(run("k.toml", "[reed]\nstiffness_N_per_m = 1e30\n"),
+                 {"k.toml", "[reed] stiffness_N_per_m", "1e+30", "natural frequency"}, out);
+  // The case file and the key that named the missing map.
+  expect_refused(run("m.toml", "[valves]\nresistance_map = \"no-such-map.csv\"\n"),
+                 {"m.toml", "[valves] resistance_map", "no-such-map.csv", "no such file"}, out);
+  // A reed whose frequency is high but resolvable is accepted (the check is
+  // not a blanket limit on the stiffness).
+  const CaseFile ok = CaseFile::parse("[reed]\nstiffness_N_per_m = 1e6\n", (dir / "ok.toml").string());
+  EXPECT_NO_THROW(system::ReedParameters::from_case(ok));
+}
+
+TEST(BadInput, EffectsThatCannotActAndOpeningsTheMeshCannotResolveAreRefused)
+{
+  const auto dir = scratch("bad_runs");
+  const auto out = dir / "out";
+  // Friction on an output piston that a no-flow run holds still: the record
+  // would carry an "answer" its data cannot show.
+  expect_refused("synth --effect piston_friction --scenario no-flow --out " + out.string(),
+                 {"piston_friction", "no-flow"}, out);
+  // 1e-12 m meshed with dihedral angles of 0 degrees and an aspect ratio of 4.6e9.
+  expect_refused("mesh --opening 1e-12 --out " + out.string(), {"1e-12", "smallest opening", "6e-08"}, out);
+  EXPECT_EQ(rectify_cli("mesh --opening 2um --no-files --out " + out.string()).exit_code, 0);
+}
+
+TEST(BadInput, ACsvCutOffInsideItsLastLineIsRefused)
+{
+  // "1.2345" cut to "1.23" still reads as a number: the missing line end is
+  // what shows the file was cut.
+  try
+    {
+      parse_csv("time_s,current_A\n0,1\n0.001,1.23", "d.csv");
+      ADD_FAILURE() << "a cut-off last line was accepted";
+    }
+  catch (const InputError &e)
+    {
+      EXPECT_NE(std::string(e.what()).find("'d.csv' line 3"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("cut off"), std::string::npos) << e.what();
+    }
+  EXPECT_NO_THROW(parse_csv("time_s,current_A\n0,1\n0.001,1.2345\n", "d.csv"));
+  EXPECT_NO_THROW(parse_csv("time_s,current_A\n0,1\n# a comment at the end, no line end", "d.csv"));
+  // Through the tool: the drive-current file of a simulation.
+  const auto dir = scratch("bad_csv");
+  write_file_atomic(dir / "cut.csv", "time_s,current_A\n0,1\n0.05,2\n0.1,1.5");
+  const auto out = dir / "out";
+  expect_refused("simulate --frequency 10 --cycles 1 --current-csv " + (dir / "cut.csv").string() + " --out " +
+                   out.string(),
+                 {"cut.csv", "line 4", "cut off"}, out);
+}
