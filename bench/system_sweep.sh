@@ -4,6 +4,8 @@
 # start-up and 50 measured cycles each, on all cores. Prints the wall time and
 # the per-cycle cost; the CVODE statistics are in OUT/sweep-runs.csv.
 #   bash bench/system_sweep.sh [OUT] [extra sweep options...]
+# RECTIFY=path/to/rectify runs another build (e.g. a copy of an older one, to
+# compare with bench/compare_sweeps.py).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-/tmp/rectify-bench-sweep}
