@@ -93,6 +93,11 @@ namespace rectify::mesher
     else
       {
         CGAL::Delaunay_mesher_no_edge_refinement_2<CDT, LocalSizeCriteria> mesher(cdt, criteria);
+        // CGAL 5.5's constructor leaves the seeds' mark uninitialised and
+        // refine_mesh() reads it (UndefinedBehaviorSanitizer: "load of value
+        // 80, which is not a valid value for type 'bool'"); with no seeds its
+        // value does not matter, but reading it is undefined: set it.
+        mesher.clear_seeds();
         mesher.refine_mesh();
       }
 
