@@ -30,6 +30,7 @@ namespace rectify::diagnosis
     if (o.drive != "auto" && o.drive != "current" && o.drive != "voltage")
       throw InputError("--drive '" + o.drive + "': current, voltage or auto");
 
+    const bool voltage = o.drive == "voltage" || (o.drive == "auto" && o.effect == "coil_dynamics");
     system::SystemParameters p = base;
     nlohmann::json           parameters = nlohmann::json::object();
     if (o.effect != "none")
@@ -37,8 +38,7 @@ namespace rectify::diagnosis
         const auto          effect = find_effect(o.effect);
         // An effect that cannot act in this run would leave it unchanged:
         // the "answer" would name an effect the data cannot show.
-        const bool as_voltage = o.drive == "voltage" || (o.drive == "auto" && o.effect == "coil_dynamics");
-        if (const std::string why = effect->not_testable({o.scenario, as_voltage}); !why.empty())
+        if (const std::string why = effect->not_testable({o.scenario, voltage}); !why.empty())
           throw InputError("--effect " + o.effect + " in a " + system::to_string(o.scenario) + " run: " + why);
         std::vector<double> values;
         for (const auto &spec : effect->parameters())
@@ -66,7 +66,6 @@ namespace rectify::diagnosis
     else if (!o.parameters.empty())
       throw InputError("--param " + o.parameters.begin()->first + ": effect 'none' has no parameters");
 
-    const bool voltage = o.drive == "voltage" || (o.drive == "auto" && o.effect == "coil_dynamics");
     const double R     = p.transducer.coil_resistance_ohm;
     const std::size_t n = o.cycles * o.samples_per_cycle + 1;
     std::vector<double> times(n), drive(n);

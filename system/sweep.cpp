@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <functional>
 #include <mutex>
+#include <optional>
 #include <sstream>
 #include <thread>
 
@@ -282,14 +283,19 @@ namespace rectify::system
     // moved along the secant through the last two (a predictor). Each
     // frequency's end state is checkpointed beside its result, so a resumed
     // sweep continues exactly as an uninterrupted one would.
-    Checkpoint states(out_dir, "sweep-states", fingerprint, state_csv_header());
-    std::map<std::string, StartState> end_states;
-    for (const auto &row : states.finished_rows())
+    // (Without chains every run starts from rest: no states are kept.)
+    std::optional<Checkpoint>         states;
+    std::map<std::string, StartState> end_states; // of the runs finished before a resume
+    if (options.chains > 0)
       {
-        std::string key_text;
-        StartState  st;
-        if (parse_state(row, key_text, st))
-          end_states[key_text] = std::move(st);
+        states.emplace(out_dir, "sweep-states", fingerprint, state_csv_header());
+        for (const auto &row : states->finished_rows())
+          {
+            std::string key_text;
+            StartState  st;
+            if (parse_state(row, key_text, st))
+              end_states[key_text] = std::move(st);
+          }
       }
 
     std::vector<Chain> chains;
@@ -317,14 +323,13 @@ namespace rectify::system
       1u, std::min<unsigned>(options.jobs ? options.jobs : std::thread::hardware_concurrency(),
                              static_cast<unsigned>(chains.size())));
 
+    // One run, checkpointed; returns its end state (a chain's next start).
     auto run_point = [&](const SweepSeries &series, double frequency, const StartState *start) {
       SystemParameters p = parameters;
       p.reed.stiffness_N_per_m *= series.stiffness_factor;
       p.reed.effective_mass_kg *= series.mass_factor;
       Model model(p, load_valve_maps(p), series.valves, options.scenario,
                   Drive::sine(frequency, options.current_pp_A, options.current_bias_A));
-      if (start && start->y.size() != model.n_states())
-        start = nullptr; // a checkpoint of another model size: start from rest
       RunResult r = run(model, options.run, start);
       SweepPoint pt{series.name,
                     frequency,
@@ -343,12 +348,12 @@ namespace rectify::system
                     r.stats.events,
                     r.warnings.size()};
       // The state first: a point whose row is written always has its state.
-      states.append(to_state_row(key(series.name, frequency), r.end_state));
+      if (states)
+        states->append(to_state_row(key(series.name, frequency), r.end_state));
       checkpoint.append(to_csv_row(pt));
       {
         std::lock_guard<std::mutex> lock(mutex);
-        done[key(pt.series, pt.frequency_Hz)]       = pt;
-        end_states[key(pt.series, pt.frequency_Hz)] = r.end_state;
+        done[key(pt.series, pt.frequency_Hz)] = pt;
       }
       char what[160];
       std::snprintf(what, sizeof(what), "%s %.4g Hz: %s %.4g, %zu+%zu cycles, %.2f s",
@@ -358,6 +363,7 @@ namespace rectify::system
                                                             pt.mean_velocity_m_per_s,
                     pt.startup_cycles, pt.measured_cycles, pt.wall_time_s);
       progress.step(what);
+      return std::move(r.end_state);
     };
 
     auto worker = [&]() {
@@ -373,32 +379,33 @@ namespace rectify::system
               std::vector<std::pair<double, StartState>> previous;
               for (double f : chain.frequencies)
                 {
+                  std::optional<StartState> finished; // before a resume
                   {
                     std::lock_guard<std::mutex> lock(mutex);
                     if (failure)
                       return;
-                    const std::string k = key(chain.series.name, f);
-                    if (done.count(k))
+                    if (done.count(key(chain.series.name, f)))
                       {
-                        // Finished before a resume: continue from its state.
-                        if (const auto it = end_states.find(k); it != end_states.end())
-                          previous.emplace_back(f, it->second);
-                        else
-                          previous.clear();
-                        continue;
+                        const auto it = end_states.find(key(chain.series.name, f));
+                        if (it == end_states.end())
+                          {
+                            previous.clear(); // no state: the next one starts from rest
+                            continue;
+                          }
+                        finished = it->second;
                       }
                   }
-                  if (previous.empty())
-                    run_point(chain.series, f, nullptr);
+                  StartState end;
+                  if (finished)
+                    end = std::move(*finished);
+                  else if (previous.empty())
+                    end = run_point(chain.series, f, nullptr);
                   else
                     {
                       const StartState start = predicted_start(previous, f, options.scenario);
-                      run_point(chain.series, f, &start);
+                      end                    = run_point(chain.series, f, &start);
                     }
-                  {
-                    std::lock_guard<std::mutex> lock(mutex);
-                    previous.emplace_back(f, end_states.at(key(chain.series.name, f)));
-                  }
+                  previous.emplace_back(f, std::move(end));
                   if (previous.size() > 2)
                     previous.erase(previous.begin());
                 }
