@@ -82,7 +82,7 @@ namespace rectify::app
     // --------------------------------------------------------------- diagnose
     struct DiagnoseCommandOptions
     {
-      std::string                case_path, out_dir, scenario = "no-flow";
+      std::string                case_path, out_dir, scenario = "no-flow", harmonics = "auto";
       std::vector<std::string>   data;
       double                     frequency_Hz = 0;
       bool                       second       = false;
@@ -127,6 +127,16 @@ namespace rectify::app
         diagnosis::find_effect(e);
       o.options.rounds = o.second ? 2 : 1;
 
+      o.options.harmonics_auto = o.harmonics == "auto";
+      if (!o.options.harmonics_auto)
+        o.options.harmonics = std::stod(o.harmonics); // checked by the option's validator
+      // auto: a loaded run is compared below half the outlet reed's natural
+      // frequency as well (DiagnoseOptions::harmonics_auto)
+      const double reed_Hz = o.options.harmonics_auto && scenario == system::Scenario::loaded ? [&] {
+        const system::ModelConstants k(p, scenario);
+        return std::sqrt(k.reed.stiffness / k.reed.mass) / (2.0 * M_PI);
+      }() : 0.0;
+
       std::vector<diagnosis::RunCase> runs;
       for (const auto &path : o.data)
         {
@@ -136,7 +146,7 @@ namespace rectify::app
                          path.c_str(), c.c_str());
           runs.push_back(diagnosis::make_run_case(std::move(run), scenario, o.frequency_Hz,
                                                   o.options.training_fraction, o.options.repair_outliers,
-                                                  o.options.harmonics));
+                                                  o.options.harmonics, reed_Hz));
           for (const auto &x : runs.back().outliers)
             std::fprintf(stderr, "notice: '%s': row %zu, %s: an isolated spike of %.3g (%.0f noise sd) replaced "
                          "by its neighbours' mean\n", path.c_str(), x.row, x.column.c_str(), x.size, x.noise_units);
@@ -154,7 +164,11 @@ namespace rectify::app
       for (const auto &rc : runs)
         data_list += (data_list.empty() ? "" : ", ") + rc.run.source + " (" +
                      format_number(std::round(rc.setup.frequency_Hz * 100) / 100) + " Hz, " +
-                     std::to_string(rc.run.time_s.size()) + " samples)";
+                     std::to_string(rc.run.time_s.size()) + " samples, " +
+                     (rc.band_Hz > 0 ? "compared within " + format_number(rc.harmonics) + " harmonics, to " +
+                                         format_number(std::round(rc.band_Hz)) + " Hz" :
+                                       std::string("every sample compared")) +
+                     ")";
       echo_settings("diagnose", {{"case", o.case_path},
                                  {"data", data_list},
                                  {"scenario", o.scenario},
@@ -181,6 +195,7 @@ namespace rectify::app
       const auto result = diagnosis::diagnose(p, map, runs, o.options);
 
       const std::filesystem::path out(o.out_dir);
+      const bool                  made_out = !std::filesystem::exists(out);
       ensure_directory(out);
       auto summary = diagnosis::to_json(result, runs);
       summary["command"]         = "diagnose";
@@ -244,6 +259,9 @@ namespace rectify::app
       catch (...)
         {
           std::filesystem::remove(out / case_name);
+          std::error_code ec; // a folder made for this run and left empty goes too
+          if (made_out && std::filesystem::is_empty(out, ec))
+            std::filesystem::remove(out, ec);
           throw;
         }
       summary["new_case"] = {{"file", case_name},
@@ -332,7 +350,7 @@ namespace rectify::app
         std::string md = "# rectify diagnose\n\nCase: `" + o.case_path + "`, scenario " + o.scenario + ".\n\n";
         md += "**Verdict: " + result.verdict + ".** " + result.verdict_sentence + ".\n\n";
         md += "## The records\n\n| run | start | residual of each start (first 2 cycles, swing units) | "
-              "settling samples left out | outliers replaced |\n|---|---|---|---|---|\n";
+              "settling samples left out | outliers replaced | compared |\n|---|---|---|---|---|---|\n";
         for (const auto &rc : result.runs)
           {
             std::string scores, spikes;
@@ -343,7 +361,11 @@ namespace rectify::app
                         sci(x.noise_units) + " sd)";
             md += "| `" + rc.run.source + "` | " + diagnosis::to_string(rc.start) + " | " +
                   (scores.empty() ? "-" : scores) + " | " + std::to_string(rc.n_skip) + " | " +
-                  (spikes.empty() ? "none" : spikes) + " |\n";
+                  (spikes.empty() ? "none" : spikes) + " | " +
+                  (rc.band_Hz > 0 ? "within " + format_number(rc.harmonics) + " harmonics (to " +
+                                      format_number(std::round(rc.band_Hz)) + " Hz; " + rc.band_reason + ")" :
+                                    std::string("every sample")) +
+                  " |\n";
           }
         if (!result.rounds.front().baseline_check.empty())
           {
@@ -474,10 +496,21 @@ namespace rectify::app
       cmd->add_option("--settling-cycles", o->options.settling_cycles,
                       "cycles at each record's start left out of the residual (default: 0 from rest, else 1)")
         ->check(CLI::Range(0.0, 100.0));
-      cmd->add_option("--harmonics", o->options.harmonics,
+      cmd->add_option("--harmonics", o->harmonics,
                       "compare data and model within this many harmonics of the pumping frequency (0: every "
-                      "sample as measured)")
-        ->check(CLI::Range(0.0, 1000.0))
+                      "sample as measured); auto: 10, and in a loaded run only those at or below half the reed's "
+                      "natural frequency (where the valves flutter)")
+        ->check(CLI::Validator(
+          [](std::string &text) -> std::string {
+            if (text == "auto")
+              return {};
+            char        *end = nullptr;
+            const double v   = std::strtod(text.c_str(), &end);
+            if (text.empty() || *end != '\0' || !(v >= 0 && v <= 1000))
+              return "'" + text + "' is neither 'auto' nor a number in [0, 1000]";
+            return {};
+          },
+          "auto|0..1000", "harmonics"))
         ->capture_default_str();
       cmd->add_flag("!--keep-outliers", o->options.repair_outliers,
                     "do not look for isolated spikes in the records (default: found, reported, replaced)");

@@ -15,6 +15,18 @@
 
 namespace rectify::diagnosis
 {
+  double uncertain_from_unit(const system::UncertainParameter &q, double u)
+  {
+    // clamped: lower * (upper / lower)^1 can round past upper, and the new
+    // case file's value must lie inside its own [uncertain] range
+    return std::clamp(q.lower * std::pow(q.upper / q.lower, std::clamp(u, 0.0, 1.0)), q.lower, q.upper);
+  }
+
+  double uncertain_to_unit(const system::UncertainParameter &q, double v)
+  {
+    return std::clamp(std::log(v / q.lower) / std::log(q.upper / q.lower), 0.0, 1.0);
+  }
+
   namespace
   {
     using Clock = std::chrono::steady_clock;
@@ -58,16 +70,6 @@ namespace rectify::diagnosis
         t.join();
       if (error)
         std::rethrow_exception(error);
-    }
-
-    /// An [uncertain] parameter <-> its position in [0, 1] (log over its bounds).
-    double uncertain_from_unit(const system::UncertainParameter &q, double u)
-    {
-      return q.lower * std::pow(q.upper / q.lower, std::clamp(u, 0.0, 1.0));
-    }
-    double uncertain_to_unit(const system::UncertainParameter &q, double v)
-    {
-      return std::clamp(std::log(v / q.lower) / std::log(q.upper / q.lower), 0.0, 1.0);
     }
 
     /// Parameters at a point u in [0, 1]^k: the effect's parameters, then
@@ -522,8 +524,16 @@ namespace rectify::diagnosis
   }
 
 
+  double compared_harmonics(double harmonics, double frequency_Hz, double reed_frequency_Hz)
+  {
+    if (!(harmonics > 0) || !(reed_frequency_Hz > 0) || !(frequency_Hz > 0))
+      return harmonics;
+    return std::min(harmonics, std::max(1.0, std::floor(0.5 * reed_frequency_Hz / frequency_Hz)));
+  }
+
   RunCase make_run_case(MeasuredRun run, system::Scenario scenario, double frequency_Hz,
-                        double training_fraction, bool repair_outliers, double harmonics)
+                        double training_fraction, bool repair_outliers, double harmonics,
+                        double reed_frequency_Hz)
   {
     RunCase rc;
     if (repair_outliers)
@@ -533,10 +543,16 @@ namespace rectify::diagnosis
       if (run.has(c))
         rc.white_sd[c] = white_noise_sd(run.signal(c));
     rc.recorded = recorded_state(run, f); // before the band limit: the laser's own noise decides "open"
-    if (harmonics > 0 && uniformly_sampled(run.time_s))
+    const double h = compared_harmonics(harmonics, f, reed_frequency_Hz);
+    if (h > 0 && uniformly_sampled(run.time_s))
       {
+        rc.band_reason = h < harmonics ? "below half the reed's natural frequency (" +
+                                           std::to_string(static_cast<long>(std::lround(reed_frequency_Hz))) +
+                                           " Hz): the valves flutter there in a loaded run" :
+                                         "as asked";
+        rc.harmonics    = h;
         const double dt = run.duration_s() / static_cast<double>(run.time_s.size() - 1);
-        rc.band_Hz      = (harmonics + 0.5) * f;
+        rc.band_Hz      = (h + 0.5) * f;
         if (rc.band_Hz * dt < 0.5)
           {
             rc.band_fraction = rc.band_Hz * dt * 2.0;
@@ -548,7 +564,11 @@ namespace rectify::diagnosis
                 run.signals[c] = band_limit(t, run.signal(c), rc.band_Hz);
           }
         else
-          rc.band_Hz = 0;
+          {
+            rc.band_Hz     = 0;
+            rc.harmonics   = 0;
+            rc.band_reason = "the band asked for reaches the sampling's Nyquist frequency: every sample";
+          }
       }
     for (const auto &c : signal_columns())
       if (run.has(c))
@@ -1272,6 +1292,9 @@ namespace rectify::diagnosis
                               {"frequency_Hz", runs[i].setup.frequency_Hz},
                               {"start", to_string(r.runs[i].start)},
                               {"start_residuals", r.runs[i].start_scores},
+                              {"harmonics_compared", r.runs[i].harmonics},
+                              {"band_Hz", r.runs[i].band_Hz},
+                              {"band_reason", r.runs[i].band_reason},
                               {"lead_cycles", r.runs[i].lead_cycles},
                               {"settling_samples_left_out", r.runs[i].n_skip},
                               {"outliers", [&] {

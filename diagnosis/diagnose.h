@@ -78,6 +78,13 @@ namespace rectify::diagnosis
     /// differently and which a measured drive's noise sets, do not decide.
     /// 0: the whole band.
     double              harmonics          = 10;
+    /// "auto" (harmonics_auto): in a loaded run the band also stops below
+    /// half the outlet reed's natural frequency (reed_frequency_Hz), at
+    /// least one harmonic: the valves are off their seats for most of every
+    /// cycle and flutter near that frequency, which two models of one reed
+    /// (one mode or two, an exact or a penalty seat) reproduce with other
+    /// phases. In a no-flow run the valves open briefly and the band stays.
+    bool                harmonics_auto     = true;
     /// A baseline parameter ([uncertain] in the case, and the force gain)
     /// whose standard error at the baseline fit exceeds this share of its
     /// (log) range is reported and held at that fit's value, not traded
@@ -111,6 +118,8 @@ namespace rectify::diagnosis
     nlohmann::json                start_scores;      ///< residual of each start tried (auto)
     std::vector<Outlier>          outliers;          ///< found and replaced in the record
     double                        band_Hz = 0;        ///< the comparison's band (0: whole)
+    double                        harmonics = 0;      ///< harmonics compared (0: every sample)
+    std::string                   band_reason;        ///< why the band stops where it does
     double                        band_fraction = 1;  ///< of the white noise's power inside it
     std::map<std::string, double> white_sd;           ///< each signal's white noise (whole band)
     std::map<std::string, double> cyclic_sd;          ///< its cycle-to-cycle scatter inside the band
@@ -186,9 +195,23 @@ namespace rectify::diagnosis
     double                    wall_time_s = 0;
   };
 
+  /// An [uncertain] parameter <-> its position in [0, 1] (log over its
+  /// bounds); the value always lies within its bounds.
+  double uncertain_from_unit(const system::UncertainParameter &q, double u);
+  double uncertain_to_unit(const system::UncertainParameter &q, double v);
+
   /// Prepares a run: its frequency (given, or from the drive) and scales.
+  /// Compared within `harmonics` harmonics (0: every sample); with
+  /// `reed_frequency_Hz` > 0 (DiagnoseOptions::harmonics_auto, loaded runs)
+  /// within at most those below half of it, and at least one.
   RunCase make_run_case(MeasuredRun run, system::Scenario scenario, double frequency_Hz,
-                        double training_fraction, bool repair_outliers = true, double harmonics = 0);
+                        double training_fraction, bool repair_outliers = true, double harmonics = 0,
+                        double reed_frequency_Hz = 0);
+
+  /// Harmonics compared for a run at `frequency_Hz` (make_run_case): at most
+  /// `harmonics`, and with reed_frequency_Hz > 0 at most those at or below
+  /// half of it, at least one.
+  double compared_harmonics(double harmonics, double frequency_Hz, double reed_frequency_Hz);
 
 
   /// Sets each run's start state (options.start; "auto": the best of the

@@ -1,5 +1,6 @@
 #include "diagnosis/effect.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "common/case_file.h"
@@ -19,7 +20,8 @@ namespace rectify::diagnosis
 
   double EffectParameter::from_unit(double u) const
   {
-    return log_scale ? lower * std::pow(upper / lower, u) : lower + u * (upper - lower);
+    // clamped: the power (or the sum) can round past a bound at u = 0 or 1
+    return std::clamp(log_scale ? lower * std::pow(upper / lower, u) : lower + u * (upper - lower), lower, upper);
   }
 
   Effect::Effect(std::string name, std::string physics, std::string signature,

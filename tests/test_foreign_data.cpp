@@ -14,6 +14,7 @@
 #include "cli_helpers.h"
 #include "common/case_file.h"
 #include "diagnosis/diagnose.h"
+#include "diagnosis/effect.h"
 #include "diagnosis/measured_run.h"
 #include "diagnosis/observation.h"
 #include "diagnosis/residuals.h"
@@ -98,6 +99,67 @@ TEST(ForeignData, BandLimitKeepsTheHarmonicsBelowTheCutoffAndRemovesTheRest)
   for (std::size_t i = out.size() / 4; i < 3 * out.size() / 4; ++i)
     mid = std::max(mid, std::abs(out[i] - low(run.time_s[i])));
   EXPECT_LT(mid, 1e-3);
+}
+
+// `--harmonics auto`: a loaded run is compared below half the reed's natural
+// frequency (its valves flutter near it through most of every cycle); a
+// no-flow run, or a number given, keeps the band asked for. The band is
+// what the run case records and what it filters: a 7th harmonic (above
+// half of 680 Hz at 100 Hz) is gone from a loaded run and kept in a
+// no-flow one.
+TEST(ForeignData, ALoadedRunIsComparedBelowTheReedsFlutter)
+{
+  EXPECT_EQ(compared_harmonics(10, 100, 680), 3);
+  EXPECT_EQ(compared_harmonics(10, 50, 680), 6);
+  EXPECT_EQ(compared_harmonics(10, 20, 680), 10); // the reed is far above the 10th harmonic
+  EXPECT_EQ(compared_harmonics(10, 500, 680), 1); // at least the fundamental
+  EXPECT_EQ(compared_harmonics(10, 100, 0), 10);  // no reed limit given
+  EXPECT_EQ(compared_harmonics(0, 100, 680), 0);  // every sample, as asked
+
+  const double f   = 100;
+  auto         low = [&](double t) { return 3e6 + 1e5 * std::cos(2 * pi * f * t); };
+  auto run = record(f, 16, [&](double t) { return low(t) + 5e4 * std::cos(2 * pi * 7 * f * t); });
+  const auto loaded  = make_run_case(run, system::Scenario::loaded, 0, 0.75, false, 10, 680);
+  const auto no_flow = make_run_case(run, system::Scenario::no_flow, 0, 0.75, false, 10, 0);
+  EXPECT_EQ(loaded.harmonics, 3);
+  EXPECT_NEAR(loaded.band_Hz, 350, 1e-6); // f estimated from the drive
+  EXPECT_EQ(no_flow.harmonics, 10);
+  EXPECT_NEAR(no_flow.band_Hz, 1050, 1e-6);
+  double seventh_loaded = 0, seventh_no_flow = 0;
+  const auto &pl = loaded.run.signal("outlet_pressure_Pa"), &pn = no_flow.run.signal("outlet_pressure_Pa");
+  for (std::size_t i = pl.size() / 4; i < 3 * pl.size() / 4; ++i)
+    {
+      seventh_loaded  = std::max(seventh_loaded, std::abs(pl[i] - low(run.time_s[i])));
+      seventh_no_flow = std::max(seventh_no_flow, std::abs(pn[i] - low(run.time_s[i])));
+    }
+  EXPECT_LT(seventh_loaded, 500);    // the 5e4 Pa 7th harmonic filtered out (to 1 %)
+  EXPECT_GT(seventh_no_flow, 4.9e4); // and kept in the no-flow run
+}
+
+// A baseline parameter fitted at its bound is written to the new case file
+// inside its own [uncertain] range (the log scale's power rounded 6e-5 to
+// 6.000000000000001e-5 once, and the new case file then refused itself).
+TEST(ForeignData, AFitAtItsBoundStaysInsideItsRange)
+{
+  for (const auto &[lo, hi] : {std::pair{5e-6, 6e-5}, std::pair{3e-3, 7e-3}, std::pair{0.005, 0.3}, std::pair{6e-5, 2.5e-4}})
+    {
+      const system::UncertainParameter q{"accumulator", "gas_volume_m3", lo, hi};
+      for (double u : {0.0, 1.0, -0.5, 1.5, 1.0 - 1e-16})
+        {
+          const double v = uncertain_from_unit(q, u);
+          EXPECT_GE(v, lo) << u;
+          EXPECT_LE(v, hi) << u;
+        }
+      EXPECT_EQ(uncertain_from_unit(q, 1.0), hi);
+      EXPECT_EQ(uncertain_from_unit(q, 0.0), lo);
+    }
+  for (const bool log_scale : {true, false})
+    {
+      EffectParameter e;
+      e.lower = 5e-6, e.upper = 6e-5, e.log_scale = log_scale;
+      EXPECT_LE(e.from_unit(1.0), e.upper);
+      EXPECT_GE(e.from_unit(0.0), e.lower);
+    }
 }
 
 // Coloured noise (AR(1), correlation 0.9 from sample to sample) is nearly

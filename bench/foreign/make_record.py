@@ -4,7 +4,7 @@
 
   /usr/bin/python3 bench/foreign/make_record.py --effect valve_leakage --seed 7 --out DIR
       [--scenario no-flow|loaded] [--frequency 100] [--cycles 16] [--value V]
-      [--start rest|static|mid|random] [--noise 0.01] [--no-sensor-effects] [--nominal]
+      [--start rest|static|mid|random] [--noise 0.01] [--no-sensor-effects] [--nominal] [--current-pp 8]
 
 Everything not given is drawn from the seed: the baseline parameters inside
 pump.RANGES (log-uniform), the effect's parameter inside pump.EFFECTS, the
@@ -42,6 +42,9 @@ def main():
     ap.add_argument("--seed", type=int, required=True)
     ap.add_argument("--scenario", default=None, choices=["no-flow", "loaded"])
     ap.add_argument("--frequency", type=float, default=None)
+    ap.add_argument("--current-pp", type=float, default=None,
+                    help="drive peak-to-peak [A], bias half of it (default: 4 loaded, 20 no-flow); with the "
+                         "same seed the same rig (baseline, effect, sensors) at another amplitude")
     ap.add_argument("--cycles", type=int, default=16)
     ap.add_argument("--samples-per-cycle", type=int, default=200)
     ap.add_argument("--start", default="random", choices=["rest", "static", "mid", "random"])
@@ -62,6 +65,8 @@ def main():
         freqs = [100.0, 150.0]
     f = a.frequency or float(rng.choice(freqs))
     pp, bias = (4.0, 2.0) if scenario == "loaded" else (20.0, 10.0)
+    if a.current_pp is not None:  # another run of the same rig: every draw below is the seed's as before
+        pp, bias = a.current_pp, a.current_pp / 2
 
     P = dict(bench.NOMINAL)
     baseline = {}

@@ -7,7 +7,8 @@ outliers, drive distortion and random starts; `rectify diagnose` names what
 it finds as a user would run it (the reference case, all candidates).
 
   /usr/bin/python3 bench/foreign/study.py --rectify build/bin/rectify --out runs/foreign-study
-      [--per-effect 3] [--none 6] [--beyond 3] [--jobs 2] [--report-only]
+      [--per-effect 3] [--none 6] [--beyond 3] [--effects E ...] [--scenario loaded] [--currents-pp 4 8]
+      [--jobs 2] [--report-only]
 
 Resumable: DIR/cases.csv gets one row per finished record (a record or a
 diagnosis already on disk is not redone). DIR/study.md: the confusion matrix
@@ -57,16 +58,24 @@ def seed_of(name, base):
 def run_case(args, name, effect):
     d = os.path.join(args.out, name)
     rec = os.path.join(d, "record")
-    if not os.path.exists(os.path.join(rec, "truth.json")):
-        cmd = [sys.executable, os.path.join(HERE, "make_record.py"), "--effect", effect,
-               "--seed", str(seed_of(name, args.seed)), "--cycles", str(args.cycles), "--out", rec]
-        subprocess.run(cmd, check=True, capture_output=True)
+    # one record per drive amplitude, all of the same rig (same seed: same
+    # baseline, effect, sensors); the first is `record`, the others record-2, ...
+    records = [rec] + [os.path.join(d, f"record-{k + 2}") for k in range(len(args.currents_pp) - 1)]
+    for k, r in enumerate(records):
+        if not os.path.exists(os.path.join(r, "truth.json")):
+            cmd = [sys.executable, os.path.join(HERE, "make_record.py"), "--effect", effect,
+                   "--seed", str(seed_of(name, args.seed)), "--cycles", str(args.cycles), "--out", r]
+            if args.scenario:
+                cmd += ["--scenario", args.scenario]
+            if args.currents_pp:
+                cmd += ["--current-pp", str(args.currents_pp[k])]
+            subprocess.run(cmd, check=True, capture_output=True)
     truth = json.load(open(os.path.join(rec, "truth.json")))
     diag = os.path.join(d, "diagnosis")
     began = time.time()
     if not os.path.exists(os.path.join(diag, "summary.json")):
-        cmd = [args.rectify, "diagnose", "--data", os.path.join(rec, "data.csv"), "--out", diag,
-               "--scenario", truth["scenario"], "--threads", str(args.threads)]
+        cmd = [args.rectify, "diagnose", "--data"] + [os.path.join(r, "data.csv") for r in records] + [
+               "--out", diag, "--scenario", truth["scenario"], "--threads", str(args.threads)]
         if args.case:
             cmd += ["--case", args.case]
         r = subprocess.run(cmd, capture_output=True, text=True)
@@ -113,7 +122,7 @@ def report(args):
           "(reference case with its [uncertain] table, all candidates).", "",
           "| hidden \\ named | " + " | ".join(named_cols) + " | correct | parameter within 20 % | median error | "
           "residual after <= 2 noise | verdicts |",
-          "|---|" + "---|" * (len(named_cols) + 4)]
+          "|---|" + "---|" * (len(named_cols) + 5)]
     for t in truths:
         rs = [r for r in rows if r["truth"] == t]
         counts = [sum(r["named"] == c for r in rs) for c in named_cols]
@@ -157,6 +166,11 @@ def main():
     ap.add_argument("--none", type=int, default=6)
     ap.add_argument("--beyond", type=int, default=3)
     ap.add_argument("--effects", nargs="*", default=list(LIBRARY))
+    ap.add_argument("--scenario", choices=["no-flow", "loaded"], default=None,
+                    help="every record in this scenario (default: the effect's own; none: loaded in 1 of 4)")
+    ap.add_argument("--currents-pp", type=float, nargs="*", default=[],
+                    help="one record per drive amplitude [A p-p] for each case, diagnosed together "
+                         "(default: one record at the scenario's amplitude)")
     ap.add_argument("--cycles", type=int, default=16)
     ap.add_argument("--seed", type=int, default=1700)
     ap.add_argument("--jobs", type=int, default=2)
