@@ -130,12 +130,7 @@ namespace rectify::app
       o.options.harmonics_auto = o.harmonics == "auto";
       if (!o.options.harmonics_auto)
         o.options.harmonics = std::stod(o.harmonics); // checked by the option's validator
-      // auto: a loaded run is compared below half the outlet reed's natural
-      // frequency as well (DiagnoseOptions::harmonics_auto)
-      const double reed_Hz = o.options.harmonics_auto && scenario == system::Scenario::loaded ? [&] {
-        const system::ModelConstants k(p, scenario);
-        return std::sqrt(k.reed.stiffness / k.reed.mass) / (2.0 * M_PI);
-      }() : 0.0;
+      const double reed_Hz = diagnosis::band_reed_frequency_Hz(p, scenario, o.options);
 
       std::vector<diagnosis::RunCase> runs;
       for (const auto &path : o.data)

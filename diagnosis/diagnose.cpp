@@ -524,6 +524,12 @@ namespace rectify::diagnosis
   }
 
 
+  double band_reed_frequency_Hz(const system::SystemParameters &p, system::Scenario scenario,
+                                const DiagnoseOptions &options)
+  {
+    return options.harmonics_auto && scenario == system::Scenario::loaded ? p.reed.natural_frequency_Hz() : 0.0;
+  }
+
   double compared_harmonics(double harmonics, double frequency_Hz, double reed_frequency_Hz)
   {
     if (!(harmonics > 0) || !(reed_frequency_Hz > 0) || !(frequency_Hz > 0))

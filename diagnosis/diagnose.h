@@ -208,6 +208,12 @@ namespace rectify::diagnosis
                         double training_fraction, bool repair_outliers = true, double harmonics = 0,
                         double reed_frequency_Hz = 0);
 
+  /// The reed frequency make_run_case limits the band with: the outlet
+  /// reed's natural frequency for a loaded run with options.harmonics_auto,
+  /// else 0 (no limit).
+  double band_reed_frequency_Hz(const system::SystemParameters &p, system::Scenario scenario,
+                                const DiagnoseOptions &options);
+
   /// Harmonics compared for a run at `frequency_Hz` (make_run_case): at most
   /// `harmonics`, and with reed_frequency_Hz > 0 at most those at or below
   /// half of it, at least one.

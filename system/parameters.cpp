@@ -90,7 +90,7 @@ namespace rectify::system
     // The reed's own frequency: above 1 MHz (1e30 N/m on the reference mass:
     // 7e17 Hz) no step CVODE can take resolves it; the model's fastest
     // physical mode, the chamber's oil, is about 145 kHz.
-    const double f_reed = std::sqrt(p.stiffness_N_per_m / p.effective_mass_kg) / (2 * std::numbers::pi);
+    const double f_reed = p.natural_frequency_Hz();
     if (!(f_reed <= 1e6))
       throw InputError(f.where(t, map.empty() ? "stiffness_N_per_m" : "properties_map") + ": k_r = " +
                        format_number(p.stiffness_N_per_m) + " N/m with m_r = " +
@@ -102,11 +102,11 @@ namespace rectify::system
     p.second_mode_frequency_Hz =
       f.real(t, "second_mode_frequency_Hz", p.second_mode_frequency_Hz, non_negative);
     if (p.second_mode_frequency_Hz > 0.0 &&
-        p.second_mode_frequency_Hz <= std::sqrt(p.stiffness_N_per_m / p.effective_mass_kg) / (2 * std::numbers::pi))
+        p.second_mode_frequency_Hz <= p.natural_frequency_Hz())
       throw InputError(f.where(t, "second_mode_frequency_Hz") + " = " +
                        format_number(p.second_mode_frequency_Hz) +
                        ": must be above the first mode's " +
-                       format_number(std::sqrt(p.stiffness_N_per_m / p.effective_mass_kg) / (2 * std::numbers::pi)) +
+                       format_number(p.natural_frequency_Hz()) +
                        " Hz (or 0 for none)");
     return p;
   }
@@ -271,7 +271,7 @@ namespace rectify::system
       p.reed.stiffness_N_per_m = reed->stiffness_N_per_m;
       p.reed.effective_mass_kg = eq321 ? reed->effective_mass_eq321_kg : reed->modal_mass_in_fluid_kg;
       p.reed.source = "map set " + reed_from + (eq321 ? " (mass: eq. 3.21)" : " (mass: FE mode in oil)");
-      const double f1 = std::sqrt(p.reed.stiffness_N_per_m / p.reed.effective_mass_kg) / (2 * std::numbers::pi);
+      const double f1 = p.reed.natural_frequency_Hz();
       if (p.reed.second_mode_frequency_Hz > 0.0 && p.reed.second_mode_frequency_Hz <= f1)
         throw InputError(f.where("reed", "second_mode_frequency_Hz") + " = " +
                          format_number(p.reed.second_mode_frequency_Hz) + ": must be above the first mode's " +

@@ -6,6 +6,8 @@
 #pragma once
 
 #include <array>
+#include <cmath>
+#include <numbers>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -53,6 +55,11 @@ namespace rectify::system
     /// damping ratio are the first mode's, as for a uniform cantilever; the
     /// tip opening is the sum of both modes.
     double second_mode_frequency_Hz = 0.0;
+    /// The first mode's natural frequency sqrt(k_r / m_r) / 2 pi [Hz].
+    double natural_frequency_Hz() const
+    {
+      return std::sqrt(stiffness_N_per_m / effective_mass_kg) / (2.0 * std::numbers::pi);
+    }
     /// Where stiffness and mass came from: "case", or the reed map (written
     /// by `rectify map-stiffness`) read at a thickness.
     std::string source = "case";

@@ -116,6 +116,14 @@ TEST(ForeignData, ALoadedRunIsComparedBelowTheReedsFlutter)
   EXPECT_EQ(compared_harmonics(10, 100, 0), 10);  // no reed limit given
   EXPECT_EQ(compared_harmonics(0, 100, 680), 0);  // every sample, as asked
 
+  // the reed frequency the band is limited with: the case's reed, loaded and auto only
+  system::SystemParameters p; // the reference values: k_r 6650 N/m, m_r 0.3643 g
+  DiagnoseOptions          o;
+  EXPECT_NEAR(band_reed_frequency_Hz(p, system::Scenario::loaded, o), 680.0, 1.0);
+  EXPECT_EQ(band_reed_frequency_Hz(p, system::Scenario::no_flow, o), 0.0);
+  o.harmonics_auto = false;
+  EXPECT_EQ(band_reed_frequency_Hz(p, system::Scenario::loaded, o), 0.0);
+
   const double f   = 100;
   auto         low = [&](double t) { return 3e6 + 1e5 * std::cos(2 * pi * f * t); };
   auto run = record(f, 16, [&](double t) { return low(t) + 5e4 * std::cos(2 * pi * 7 * f * t); });
