@@ -83,6 +83,7 @@ namespace rectify::app
     struct DiagnoseCommandOptions
     {
       std::string                case_path, out_dir, scenario = "no-flow", harmonics = "auto";
+      std::string                reed_second_mode = "auto";
       std::vector<std::string>   data;
       double                     frequency_Hz = 0;
       bool                       second       = false;
@@ -114,8 +115,11 @@ namespace rectify::app
     {
       const auto     start = std::chrono::steady_clock::now();
       const CaseFile file  = load_case(o.case_path);
-      const auto     p     = system::SystemParameters::from_case(file);
+      auto           p     = system::SystemParameters::from_case(file);
       const auto     scenario = system::parse_scenario(o.scenario);
+      const double file_second_mode_Hz = p.reed.second_mode_frequency_Hz;
+      const auto   second_mode = diagnosis::baseline_second_mode(p, scenario, o.reed_second_mode);
+      p.reed.second_mode_frequency_Hz = second_mode.frequency_Hz;
       if (o.data.empty())
         throw InputError("--data: give at least one measured run (CSV)");
       if (!(o.options.training_fraction >= 0.3 && o.options.training_fraction <= 0.95))
@@ -181,6 +185,10 @@ namespace rectify::app
                                                          format_number(q.upper) + "]";
                                                   return s;
                                                 }())},
+                                 {"reed second mode", second_mode.frequency_Hz > 0 ?
+                                                        format_number(std::round(second_mode.frequency_Hz)) +
+                                                          " Hz, " + second_mode.reason :
+                                                        second_mode.reason},
                                  {"start", o.options.start},
                                  {"training", format_number(o.options.training_fraction) + " of each run; the rest held out"},
                                  {"rounds", std::to_string(o.options.rounds)},
@@ -198,6 +206,7 @@ namespace rectify::app
       summary["build"]           = build_info();
       summary["case"]            = o.case_path;
       summary["scenario"]        = o.scenario;
+      summary["baseline_second_mode"] = {{"frequency_Hz", second_mode.frequency_Hz}, {"reason", second_mode.reason}};
       summary["data"]            = o.data;
 
       // The new case file with the named effects (and the fitted gain).
@@ -214,6 +223,12 @@ namespace rectify::app
             for (const auto &k : e->fixed_keys())
               entries.push_back({k.table, k.key, k.value, "rectify diagnose: " + rr.effect});
           }
+      const bool second_mode_named = std::any_of(entries.begin(), entries.end(), [](const auto &e) {
+        return e.table == "reed" && e.key == "second_mode_frequency_Hz";
+      });
+      if (!second_mode_named && second_mode.frequency_Hz != file_second_mode_Hz)
+        entries.push_back({"reed", "second_mode_frequency_Hz", format_number(second_mode.frequency_Hz),
+                           "rectify diagnose: the baseline's second mode, " + second_mode.reason});
       for (const auto &q : result.final_parameters.uncertain)
         entries.push_back({q.table, q.key, format_number(result.final_parameters.real_value(q.table, q.key)),
                            "rectify diagnose: uncertain baseline parameter, fitted"});
@@ -343,6 +358,9 @@ namespace rectify::app
       // report.md
       {
         std::string md = "# rectify diagnose\n\nCase: `" + o.case_path + "`, scenario " + o.scenario + ".\n\n";
+        md += "The reeds' second mode in the baseline: " +
+              (second_mode.frequency_Hz > 0 ? format_number(std::round(second_mode.frequency_Hz)) + " Hz, " : std::string()) +
+              second_mode.reason + ".\n\n";
         md += "**Verdict: " + result.verdict + ".** " + result.verdict_sentence + ".\n\n";
         md += "## The records\n\n| run | start | residual of each start (first 2 cycles, swing units) | "
               "settling samples left out | outliers replaced | compared |\n|---|---|---|---|---|---|\n";
@@ -506,6 +524,10 @@ namespace rectify::app
             return {};
           },
           "auto|0..1000", "harmonics"))
+        ->capture_default_str();
+      cmd->add_option("--reed-second-mode", o->reed_second_mode,
+                      "the reeds' second bending mode in the baseline: auto (the case's; if it gives none, a "
+                      "loaded run gets a uniform cantilever's at 6.267 x the first mode), case, or a frequency [Hz]")
         ->capture_default_str();
       cmd->add_flag("!--keep-outliers", o->options.repair_outliers,
                     "do not look for isolated spikes in the records (default: found, reported, replaced)");

@@ -102,7 +102,10 @@ def main():
             synth += ["--param", f"{key}={value!r}"]
         subprocess.run(synth, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         t0 = time.time()
-        subprocess.run([a.rectify, "diagnose", *case_args, "--scenario", scenario, "--threads",
+        # the records' reed is the case's (synth: one mode unless the effect
+        # is a second one): the baseline keeps it (the sanity level)
+        subprocess.run([a.rectify, "diagnose", *case_args, "--scenario", scenario, "--reed-second-mode", "case",
+                        "--threads",
                         str(max(1, 2 // a.jobs)), "--data", os.path.join(d, "data.csv"), "--out",
                         os.path.join(d, "diagnosis")],
                        check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)

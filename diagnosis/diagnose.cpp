@@ -530,6 +530,31 @@ namespace rectify::diagnosis
     return options.harmonics_auto && scenario == system::Scenario::loaded ? p.reed.natural_frequency_Hz() : 0.0;
   }
 
+  BaselineSecondMode baseline_second_mode(const system::SystemParameters &p, system::Scenario scenario,
+                                          const std::string &choice)
+  {
+    const double f1 = p.reed.natural_frequency_Hz(), fc = p.reed.second_mode_frequency_Hz;
+    if (choice == "case")
+      return {fc, fc > 0 ? "the case's [reed] second_mode_frequency_Hz" : "none: the case gives none"};
+    if (choice != "auto")
+      {
+        char        *end = nullptr;
+        const double f   = std::strtod(choice.c_str(), &end);
+        if (choice.empty() || *end != '\0' || !std::isfinite(f) || f <= f1)
+          throw InputError("--reed-second-mode '" + choice + "': give auto, case or a frequency [Hz] above the "
+                           "reed's first mode (" + format_number(f1) + " Hz)");
+        return {f, "given (--reed-second-mode)"};
+      }
+    if (fc > 0)
+      return {fc, "the case's [reed] second_mode_frequency_Hz"};
+    if (scenario != system::Scenario::loaded)
+      return {0.0, "none: a no-flow run's valves are shut most of the time (the case gives none)"};
+    constexpr double uniform_cantilever = (4.6941 / 1.8751) * (4.6941 / 1.8751);
+    return {uniform_cantilever * f1, "a uniform cantilever's, 6.267 x the first mode (" + format_number(f1) +
+                                       " Hz): a loaded run's reeds are off their seats most of the time (the case "
+                                       "gives none; --reed-second-mode case keeps one mode)"};
+  }
+
   double compared_harmonics(double harmonics, double frequency_Hz, double reed_frequency_Hz)
   {
     if (!(harmonics > 0) || !(reed_frequency_Hz > 0) || !(frequency_Hz > 0))

@@ -214,6 +214,24 @@ namespace rectify::diagnosis
   double band_reed_frequency_Hz(const system::SystemParameters &p, system::Scenario scenario,
                                 const DiagnoseOptions &options);
 
+  /// The reed's second bending mode in the baseline a diagnosis starts from.
+  struct BaselineSecondMode
+  {
+    double      frequency_Hz = 0; ///< 0: none (one mode)
+    std::string reason;           ///< where the value comes from, in words
+  };
+
+  /// `choice` (diagnose --reed-second-mode): "case" keeps the case's value;
+  /// a number [Hz] sets it (above the first mode, InputError otherwise);
+  /// "auto" keeps the case's where it gives one and otherwise, in a loaded
+  /// run, gives the reed a uniform cantilever's second mode at
+  /// (4.694 / 1.875)^2 = 6.267 x its first: off its seat for most of every
+  /// cycle, a real reed's second mode shows in a loaded record and, absent
+  /// from the baseline, is named as if it were missing physics. In a no-flow
+  /// run (valves shut most of the time) auto keeps the case's.
+  BaselineSecondMode baseline_second_mode(const system::SystemParameters &p, system::Scenario scenario,
+                                          const std::string &choice);
+
   /// Harmonics compared for a run at `frequency_Hz` (make_run_case): at most
   /// `harmonics`, and with reed_frequency_Hz > 0 at most those at or below
   /// half of it, at least one.

@@ -175,6 +175,12 @@ namespace rectify::system
     return y;
   }
 
+  double Model::seat_reaction(double force, double x1, double v1, double x2, double v2) const
+  {
+    // m (a1 + a2) = 2 (F + reaction) - b1 v1 - k1 x1 - b2 v2 - k2 x2 = 0
+    return -force + 0.5 * (c_.reed.damping * v1 + c_.reed.stiffness * x1 + c_.b_r2 * v2 + c_.k_r2 * x2);
+  }
+
   bool Model::needs_difference_jacobian() const
   {
     return c_.fluid.free_air_fraction > 0 || c_.C_seal > 0 || c_.R_leak > 0 || c_.orifice_factor > 0 ||
@@ -346,17 +352,22 @@ namespace rectify::system
         const std::size_t ix2 = v == 0 ? outlet_reed2_x : inlet_reed2_x;
         if (ydot.size() > ix2 + 1)
           ydot[ix2] = ydot[ix2 + 1] = 0.0;
-        if (valves_ == ValveModel::ideal || closed_[v])
+        if (valves_ == ValveModel::ideal || (closed_[v] && c_.k_r2 == 0.0))
           {
             ydot[ix] = ydot[ix + 1] = 0.0; // on the seat: held by the seat's reaction
             continue;
           }
+        // Two modes: the seat holds the tip (x1 + x2 = 0), not the reed: its
+        // reaction acts on both modes (tip-normalised, equal modal masses)
+        // and keeps the tip's acceleration at zero, while the modes'
+        // difference rings as the tip-pinned reed.
+        const double reaction = closed_[v] ? seat_reaction(force[v], y[ix], y[ix + 1], y[ix2], y[ix2 + 1]) : 0.0;
         ydot[ix]     = y[ix + 1];
-        ydot[ix + 1] = reed_acceleration(c_.reed, y[ix], y[ix + 1], force[v]);
+        ydot[ix + 1] = reed_acceleration(c_.reed, y[ix], y[ix + 1], force[v] + reaction);
         if (c_.k_r2 > 0)
           {
             ydot[ix2]     = y[ix2 + 1];
-            ydot[ix2 + 1] = (force[v] - c_.b_r2 * y[ix2 + 1] - c_.k_r2 * y[ix2]) / c_.reed.mass;
+            ydot[ix2 + 1] = (force[v] + reaction - c_.b_r2 * y[ix2 + 1] - c_.k_r2 * y[ix2]) / c_.reed.mass;
           }
       }
 
@@ -515,8 +526,11 @@ namespace rectify::system
           }
         else
           {
+            const double      F   = v == 0 ? f.outlet_force : f.inlet_force;
+            const std::size_t ix2 = v == 0 ? state::outlet_reed2_x : state::inlet_reed2_x;
+            // seated with two modes: lifts off when the seat would have to pull
             g[v] = reed_root(closed_[v], closed_[v] ? y[ix] : opening(v, y),
-                             v == 0 ? f.outlet_force : f.inlet_force);
+                             closed_[v] && c_.k_r2 > 0 ? -seat_reaction(F, y[ix], y[ix + 1], y[ix2], y[ix2 + 1]) : F);
           }
       }
   }
@@ -535,11 +549,37 @@ namespace rectify::system
             closed_[v] = !closed_[v];
             continue;
           }
-        // The seat stops the tip: both modes come to rest at the seat (the
-        // second mode's rebound is not modelled).
         const std::size_t ix2 = v == 0 ? state::outlet_reed2_x : state::inlet_reed2_x;
         if (c_.k_r2 > 0)
-          y[ix2] = y[ix2 + 1] = 0.0;
+          {
+            // Two modes: the seat stops the tip, not the reed. At impact an
+            // impulse on the tip (equal on both tip-normalised modes of equal
+            // modal mass) sets the tip's velocity to its rebound; the modes'
+            // difference keeps ringing while the tip is held (rhs). It lifts
+            // off when the seat would have to pull (roots).
+            double &x1 = y[ix], &v1 = y[ix + 1], &x2 = y[ix2], &v2 = y[ix2 + 1];
+            if (closed_[v])
+              {
+                x1 += reed_seat_tolerance - (x1 + x2); // a hair above the seat (reed.h)
+                closed_[v] = false;
+                continue;
+              }
+            ++n_impacts_;
+            const double s = x1 + x2;
+            x1 -= 0.5 * s;
+            x2 -= 0.5 * s;
+            const double tip_v   = v1 + v2;
+            const double rebound = c_.reed.restitution * std::max(-tip_v, 0.0);
+            v1 += 0.5 * (rebound - tip_v);
+            v2 += 0.5 * (rebound - tip_v);
+            const Flows  f = flows(y);
+            const double F = v == 0 ? f.outlet_force : f.inlet_force;
+            if (rebound < 1e-6 && -seat_reaction(F, x1, v1, x2, v2) <= reed_lift_force)
+              closed_[v] = true; // held
+            else if (rebound < 1e-6)
+              x1 += reed_seat_tolerance; // leaves again at once
+            continue;
+          }
         if (!closed_[v])
           {
             ++n_impacts_;

@@ -179,6 +179,9 @@ namespace rectify::system
     /// True if an optional effect is on: the analytic Jacobian covers only
     /// the thesis model, so CVODE's difference quotients are used instead.
     bool                needs_difference_jacobian() const;
+    /// The seat's reaction on a seated two-mode reed that keeps its tip at
+    /// the seat (force: the opening force; x, v: the modes' tip coordinates).
+    double              seat_reaction(double force, double x1, double v1, double x2, double v2) const;
     std::vector<double> initial_state() const;
     /// Typical magnitude of each state, for absolute tolerances.
     std::vector<double> typical_sizes() const;

@@ -195,6 +195,65 @@ TEST(Effects, FrictionSlowsTheLoadedActuatorAndSecondModeAddsTipCompliance)
   EXPECT_NEAR(ydot[state::outlet_reed2_v], (f.outlet_force - c.k_r2 * 2e-6) / c.reed.mass, 1e-9 * std::abs(c.k_r2 * 2e-6 / c.reed.mass));
 }
 
+TEST(Effects, ASeatedTwoModeReedIsHeldAtItsTipAndRingsAsThePinnedReed)
+{
+  // The seat holds the tip (x1 + x2 = 0), not the reed. Seated, with the
+  // modes' difference d = x1 - x2 (x1 = d/2, x2 = -d/2) and equal modal
+  // masses m: m (a1 + a2) = 0 and m d'' = -(k1 + k2) d / 2, the tip-pinned
+  // reed (for k2 = 6.27^2 k1: 4.5 f1, a clamped-pinned beam's 4.36 f1),
+  // whatever the opening force; the seat's reaction is the rest.
+  auto q                          = reference();
+  q.reed.second_mode_frequency_Hz = 6.27 * q.reed.natural_frequency_Hz();
+  Model       m                   = make(q, Scenario::no_flow, 100);
+  const auto &c                   = m.constants();
+  std::vector<double> y(m.n_states(), 0.0), ydot(m.n_states());
+  m.set_closed(0, true);
+  const double d = 3e-6;
+  y[state::outlet_reed_x]  = 0.5 * d;
+  y[state::outlet_reed2_x] = -0.5 * d;
+  y[state::chamber_p]      = -2e5; // a closing force
+  m.rhs(0.0, y, ydot);
+  const double a1 = ydot[state::outlet_reed_v], a2 = ydot[state::outlet_reed2_v];
+  const double k1 = c.reed.stiffness, k2 = c.k_r2, mr = c.reed.mass;
+  EXPECT_NEAR(a1 + a2, 0.0, 1e-9 * std::abs(a1));
+  EXPECT_NEAR(a1 - a2, -(k1 + k2) / (2 * mr) * d, 1e-9 * std::abs(a1 - a2));
+  const Flows f = m.flows(y);
+  EXPECT_LT(f.outlet_force, 0.0);
+  EXPECT_NEAR(m.seat_reaction(f.outlet_force, 0.5 * d, 0, -0.5 * d, 0), -f.outlet_force + 0.25 * (k1 - k2) * d,
+              1e-12 * std::abs(f.outlet_force));
+
+  // At impact the tip stops: an impulse on the tip, equal on both modes,
+  // takes the tip's kinetic energy m (v1 + v2)^2 / 4 and leaves the
+  // difference's; the reed stays on the seat under a closing force.
+  m.set_closed(0, false);
+  const double v1 = -0.3, v2 = 0.1;
+  y[state::outlet_reed_x] = 0.0;
+  y[state::outlet_reed2_x] = 0.0;
+  y[state::outlet_reed_v]  = v1;
+  y[state::outlet_reed2_v] = v2;
+  const std::vector<int> found{-1, 0};
+  EXPECT_TRUE(m.handle_events(0.0, y, found));
+  EXPECT_TRUE(m.closed(0));
+  EXPECT_NEAR(y[state::outlet_reed_v] + y[state::outlet_reed2_v], 0.0, 1e-15);
+  EXPECT_NEAR(y[state::outlet_reed_v] - y[state::outlet_reed2_v], v1 - v2, 1e-15);
+  const double ke_before = 0.5 * mr * (v1 * v1 + v2 * v2);
+  const double ke_after  = 0.5 * mr * (std::pow(y[state::outlet_reed_v], 2) + std::pow(y[state::outlet_reed2_v], 2));
+  EXPECT_NEAR(ke_before - ke_after, 0.25 * mr * (v1 + v2) * (v1 + v2), 1e-12 * ke_before);
+
+  // An opening force lifts it: the root is the force the seat would have to pull with.
+  y[state::chamber_p] = 2e5;
+  std::vector<double> g(2);
+  m.roots(0.0, y, g);
+  const Flows fo = m.flows(y);
+  EXPECT_NEAR(g[0], reed_lift_force + m.seat_reaction(fo.outlet_force, y[state::outlet_reed_x], y[state::outlet_reed_v],
+                                                      y[state::outlet_reed2_x], y[state::outlet_reed2_v]),
+              1e-12 * std::abs(fo.outlet_force));
+  EXPECT_LT(g[0], 0.0);
+  EXPECT_TRUE(m.handle_events(0.0, y, found));
+  EXPECT_FALSE(m.closed(0));
+  EXPECT_NEAR(m.opening(0, y), reed_seat_tolerance, 1e-20);
+}
+
 TEST(Effects, InertialLineFeedsTheHighSideThroughItsOwnNode)
 {
   // Valve into the node between valve and line, line out of it:

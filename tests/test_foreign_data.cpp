@@ -144,6 +144,35 @@ TEST(ForeignData, ALoadedRunIsComparedBelowTheReedsFlutter)
   EXPECT_GT(seventh_no_flow, 4.9e4); // and kept in the no-flow run
 }
 
+// A loaded run's baseline reed has its second mode (a real reed's shows when
+// it is off its seat most of the time); a no-flow run's keeps the case's.
+TEST(ForeignData, ALoadedBaselineReedHasItsSecondMode)
+{
+  system::SystemParameters p; // reference reed: 680 Hz, no second mode
+  const double             f1 = p.reed.natural_frequency_Hz();
+  const double             beam = std::pow(4.6941 / 1.8751, 2); // uniform cantilever f2 / f1
+  EXPECT_NEAR(baseline_second_mode(p, system::Scenario::loaded, "auto").frequency_Hz, beam * f1, 1e-9 * f1);
+  EXPECT_NEAR(beam, 6.267, 1e-3);
+  EXPECT_EQ(baseline_second_mode(p, system::Scenario::no_flow, "auto").frequency_Hz, 0.0);
+  EXPECT_EQ(baseline_second_mode(p, system::Scenario::loaded, "case").frequency_Hz, 0.0);
+  EXPECT_EQ(baseline_second_mode(p, system::Scenario::no_flow, "5000").frequency_Hz, 5000.0);
+  p.reed.second_mode_frequency_Hz = 3900; // the case's own wins over the beam's
+  EXPECT_EQ(baseline_second_mode(p, system::Scenario::loaded, "auto").frequency_Hz, 3900.0);
+  EXPECT_EQ(baseline_second_mode(p, system::Scenario::no_flow, "auto").frequency_Hz, 3900.0);
+  for (const char *bad : {"600", "-1", "nan", "inf", "", "4e3x", "off"})
+    {
+      try
+        {
+          baseline_second_mode(p, system::Scenario::loaded, bad);
+          ADD_FAILURE() << "accepted '" << bad << "'";
+        }
+      catch (const InputError &e)
+        {
+          EXPECT_NE(std::string(e.what()).find("--reed-second-mode"), std::string::npos) << e.what();
+        }
+    }
+}
+
 // A baseline parameter fitted at its bound is written to the new case file
 // inside its own [uncertain] range (the log scale's power rounded 6e-5 to
 // 6.000000000000001e-5 once, and the new case file then refused itself).

@@ -9,7 +9,7 @@ namespace rectify::diagnosis
       "reed_second_mode",
       "a second bending mode of each reed (uniform cantilever: about 6.27 x the first "
       "frequency), with the first mode's modal mass and damping ratio; the tip opening is the "
-      "sum of both",
+      "sum of both, and the seat holds the tip, not the reed",
       "high-frequency ringing of the valve opening (and the outlet pressure) at each opening, "
       "at the second mode's frequency, above the harmonics the first mode explains",
       std::vector<EffectParameter>{{"reed", "second_mode_frequency_Hz", 1500.0, 9000.0, true,
