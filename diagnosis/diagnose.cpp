@@ -534,6 +534,7 @@ namespace rectify::diagnosis
                                           const std::string &choice)
   {
     const double f1 = p.reed.natural_frequency_Hz(), fc = p.reed.second_mode_frequency_Hz;
+    const std::string f1_text = format_number(std::round(f1 * 10) / 10);
     if (choice == "case")
       return {fc, fc > 0 ? "the case's [reed] second_mode_frequency_Hz" : "none: the case gives none"};
     if (choice != "auto")
@@ -542,7 +543,7 @@ namespace rectify::diagnosis
         const double f   = std::strtod(choice.c_str(), &end);
         if (choice.empty() || *end != '\0' || !std::isfinite(f) || f <= f1)
           throw InputError("--reed-second-mode '" + choice + "': give auto, case or a frequency [Hz] above the "
-                           "reed's first mode (" + format_number(f1) + " Hz)");
+                           "reed's first mode (" + f1_text + " Hz)");
         return {f, "given (--reed-second-mode)"};
       }
     if (fc > 0)
@@ -550,7 +551,7 @@ namespace rectify::diagnosis
     if (scenario != system::Scenario::loaded)
       return {0.0, "none: a no-flow run's valves are shut most of the time (the case gives none)"};
     constexpr double uniform_cantilever = (4.6941 / 1.8751) * (4.6941 / 1.8751);
-    return {uniform_cantilever * f1, "a uniform cantilever's, 6.267 x the first mode (" + format_number(f1) +
+    return {uniform_cantilever * f1, "a uniform cantilever's, 6.267 x the first mode (" + f1_text +
                                        " Hz): a loaded run's reeds are off their seats most of the time (the case "
                                        "gives none; --reed-second-mode case keeps one mode)"};
   }
