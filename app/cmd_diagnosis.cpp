@@ -185,10 +185,7 @@ namespace rectify::app
                                                          format_number(q.upper) + "]";
                                                   return s;
                                                 }())},
-                                 {"reed second mode", second_mode.frequency_Hz > 0 ?
-                                                        format_number(std::round(second_mode.frequency_Hz)) +
-                                                          " Hz, " + second_mode.reason :
-                                                        second_mode.reason},
+                                 {"reed second mode", second_mode.text()},
                                  {"start", o.options.start},
                                  {"training", format_number(o.options.training_fraction) + " of each run; the rest held out"},
                                  {"rounds", std::to_string(o.options.rounds)},
@@ -358,9 +355,7 @@ namespace rectify::app
       // report.md
       {
         std::string md = "# rectify diagnose\n\nCase: `" + o.case_path + "`, scenario " + o.scenario + ".\n\n";
-        md += "The reeds' second mode in the baseline: " +
-              (second_mode.frequency_Hz > 0 ? format_number(std::round(second_mode.frequency_Hz)) + " Hz, " : std::string()) +
-              second_mode.reason + ".\n\n";
+        md += "The reeds' second mode in the baseline: " + second_mode.text() + ".\n\n";
         md += "**Verdict: " + result.verdict + ".** " + result.verdict_sentence + ".\n\n";
         md += "## The records\n\n| run | start | residual of each start (first 2 cycles, swing units) | "
               "settling samples left out | outliers replaced | compared |\n|---|---|---|---|---|---|\n";

@@ -32,6 +32,7 @@
 // the residual is largest shrink by half); else "none".
 #pragma once
 
+#include <cmath>
 #include <filesystem>
 #include <functional>
 #include <memory>
@@ -39,6 +40,7 @@
 #include <string>
 #include <vector>
 
+#include "common/case_file.h"
 #include "diagnosis/effect.h"
 #include "diagnosis/measured_run.h"
 #include "diagnosis/observation.h"
@@ -219,6 +221,11 @@ namespace rectify::diagnosis
   {
     double      frequency_Hz = 0; ///< 0: none (one mode)
     std::string reason;           ///< where the value comes from, in words
+    /// "4261 Hz, <reason>", or the reason alone when there is none.
+    std::string text() const
+    {
+      return frequency_Hz > 0 ? format_number(std::round(frequency_Hz)) + " Hz, " + reason : reason;
+    }
   };
 
   /// `choice` (diagnose --reed-second-mode): "case" keeps the case's value;

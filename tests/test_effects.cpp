@@ -252,6 +252,20 @@ TEST(Effects, ASeatedTwoModeReedIsHeldAtItsTipAndRingsAsThePinnedReed)
   EXPECT_TRUE(m.handle_events(0.0, y, found));
   EXPECT_FALSE(m.closed(0));
   EXPECT_NEAR(m.opening(0, y), reed_seat_tolerance, 1e-20);
+
+  // With restitution e the tip leaves at e times its impact speed, the
+  // modes' difference untouched, and the reed is not held.
+  q.reed.restitution = 0.5;
+  Model bouncy       = make(q, Scenario::no_flow, 100);
+  bouncy.set_closed(0, false);
+  y[state::outlet_reed_x] = y[state::outlet_reed2_x] = 0.0;
+  y[state::outlet_reed_v]  = v1;
+  y[state::outlet_reed2_v] = v2;
+  y[state::chamber_p]      = -2e5;
+  EXPECT_TRUE(bouncy.handle_events(0.0, y, found));
+  EXPECT_FALSE(bouncy.closed(0));
+  EXPECT_NEAR(y[state::outlet_reed_v] + y[state::outlet_reed2_v], -0.5 * (v1 + v2), 1e-15);
+  EXPECT_NEAR(y[state::outlet_reed_v] - y[state::outlet_reed2_v], v1 - v2, 1e-15);
 }
 
 TEST(Effects, InertialLineFeedsTheHighSideThroughItsOwnNode)

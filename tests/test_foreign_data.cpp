@@ -153,6 +153,8 @@ TEST(ForeignData, ALoadedBaselineReedHasItsSecondMode)
   const double             beam = std::pow(4.6941 / 1.8751, 2); // uniform cantilever f2 / f1
   EXPECT_NEAR(baseline_second_mode(p, system::Scenario::loaded, "auto").frequency_Hz, beam * f1, 1e-9 * f1);
   EXPECT_NEAR(beam, 6.267, 1e-3);
+  EXPECT_EQ(baseline_second_mode(p, system::Scenario::loaded, "auto").text().rfind("4261 Hz, a uniform cantilever's", 0), 0u);
+  EXPECT_EQ(baseline_second_mode(p, system::Scenario::no_flow, "auto").text().rfind("none:", 0), 0u);
   EXPECT_EQ(baseline_second_mode(p, system::Scenario::no_flow, "auto").frequency_Hz, 0.0);
   EXPECT_EQ(baseline_second_mode(p, system::Scenario::loaded, "case").frequency_Hz, 0.0);
   EXPECT_EQ(baseline_second_mode(p, system::Scenario::no_flow, "5000").frequency_Hz, 5000.0);
