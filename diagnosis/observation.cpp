@@ -119,6 +119,64 @@ namespace rectify::diagnosis
     return filter_cosine_series(v, [&](std::size_t k, std::size_t, double a) { return k == 0 || a >= threshold; });
   }
 
+  namespace
+  {
+    /// Roughly what one length-m FFT costs per sample: the sum of m's prime
+    /// factors (Eigen's kissfft handles a prime factor p in O(p) per sample).
+    std::size_t fft_cost_per_sample(std::size_t m)
+    {
+      std::size_t cost = 0;
+      for (std::size_t p = 2; p * p <= m; ++p)
+        while (m % p == 0)
+          {
+            cost += p;
+            m /= p;
+          }
+      return m > 1 ? cost + m : cost;
+    }
+
+    /// filter_cosine_series keeping the terms k = 0..K (and their mirrors),
+    /// summed directly: the cosine coefficients X_k = v_0 + (-1)^k v_{n-1} +
+    /// 2 sum_{0<i<n-1} v_i cos(pi k i / (n-1)) and back
+    /// y_i = (X_0 + 2 sum_{k=1..K} X_k cos(pi k i / (n-1))) / m, m = 2 (n - 1), K < n - 1.
+    std::vector<double> low_cosine_terms(const std::vector<double> &v, std::size_t K)
+    {
+      const std::size_t   n = v.size(), m = 2 * (n - 1);
+      std::vector<double> c(m);
+      for (std::size_t j = 0; j < m; ++j)
+        c[j] = std::cos(std::numbers::pi * static_cast<double>(j) / static_cast<double>(n - 1));
+      std::vector<double> X(K + 1);
+      for (std::size_t k = 0; k <= K; ++k)
+        {
+          double      sum = v[0];
+          std::size_t j   = 0; // k i mod m
+          for (std::size_t i = 1; i < n; ++i)
+            {
+              j += k;
+              if (j >= m)
+                j -= m;
+              sum += (i + 1 < n ? 2.0 : 1.0) * v[i] * c[j];
+            }
+          X[k] = sum;
+        }
+      std::vector<double> y(n);
+      for (std::size_t i = 0; i < n; ++i)
+        {
+          double      sum = X[0];
+          std::size_t j   = 0; // k i mod m
+          for (std::size_t k = 1; k <= K; ++k)
+            {
+              j += i;
+              if (j >= m)
+                j -= m;
+              sum += 2.0 * X[k] * c[j];
+            }
+          y[i] = sum / static_cast<double>(m);
+        }
+      return y;
+    }
+  } // namespace
+
   std::vector<double> band_limit(const std::vector<double> &t, const std::vector<double> &v, double cutoff_Hz)
   {
     const std::size_t n = v.size();
@@ -128,6 +186,14 @@ namespace rectify::diagnosis
     if (cutoff_Hz * dt >= 0.5)
       return v;
     const double df = 1.0 / (2.0 * static_cast<double>(n - 1) * dt);
+    // the terms kept: k df <= cutoff, k < n - 1 (the cutoff is below Nyquist)
+    std::size_t K = 0;
+    while (K + 2 < n && static_cast<double>(K + 1) * df <= cutoff_Hz)
+      ++K;
+    // a record whose length has a large prime factor makes the FFT slow
+    // (2400 samples: m = 2 x 2399, a prime): a few low terms are cheaper summed
+    if (K + 1 <= fft_cost_per_sample(2 * (n - 1)))
+      return low_cosine_terms(v, K);
     return filter_cosine_series(v, [&](std::size_t k, std::size_t m, double) {
       return static_cast<double>(std::min(k, m - k)) * df <= cutoff_Hz;
     });

@@ -76,8 +76,10 @@ TEST(ForeignData, IsolatedSpikesAreFoundAndRepairedAndKinksAreLeftAlone)
   for (std::size_t k : {1050u, 2222u})
     EXPECT_LT(std::abs(p[k] - clean[k]), 5e4) << k; // back within a few noise sd
   for (std::size_t k = 0; k < p.size(); ++k)
-    if (k != 1050 && k != 2222)
-      ASSERT_EQ(p[k], clean[k]) << "sample " << k << " changed";
+    {
+      if (k != 1050 && k != 2222)
+        ASSERT_EQ(p[k], clean[k]) << "sample " << k << " changed";
+    }
 }
 
 // The band the residual is compared in: every term of the record's cosine
@@ -99,6 +101,49 @@ TEST(ForeignData, BandLimitKeepsTheHarmonicsBelowTheCutoffAndRemovesTheRest)
   for (std::size_t i = out.size() / 4; i < 3 * out.size() / 4; ++i)
     mid = std::max(mid, std::abs(out[i] - low(run.time_s[i])));
   EXPECT_LT(mid, 1e-3);
+}
+
+// The same band by both of band_limit's ways: records whose length m = 2 (n - 1)
+// has a large prime factor (n - 1 = 2399, a prime) sum the few low terms
+// directly, others (n - 1 = 2048) use the FFT. Each keeps the record's own
+// cosine terms cos(pi k i / (n - 1)) up to the cutoff (the last one kept
+// and the first one dropped included) exactly and removes the others;
+// filtering twice changes nothing.
+TEST(ForeignData, BandLimitIsExactOnTheCosineTermsByBothWays)
+{
+  for (const std::size_t n : {std::size_t{2400}, std::size_t{2049}})
+    {
+      const double        dt = 1e-4, df = 1.0 / (2.0 * static_cast<double>(n - 1) * dt);
+      const std::size_t   K  = 40; // the last term kept
+      const double        cutoff = (static_cast<double>(K) + 0.5) * df;
+      std::vector<double> t(n), v(n), kept(n), noise(n);
+      std::mt19937        rng(5);
+      std::normal_distribution<double> normal;
+      const auto term = [&](std::size_t k, std::size_t i) {
+        return std::cos(pi * static_cast<double>(k * i) / static_cast<double>(n - 1));
+      };
+      for (std::size_t i = 0; i < n; ++i)
+        {
+          t[i]    = static_cast<double>(i) * dt;
+          kept[i] = 2.0 + 1.5 * term(3, i) - 0.7 * term(K, i);
+          v[i]    = kept[i] + 0.9 * term(K + 1, i) + 0.3 * term(700, i) + 0.2 * term(n - 1, i);
+          noise[i] = normal(rng);
+        }
+      const auto out   = band_limit(t, v, cutoff);
+      double     worst = 0;
+      for (std::size_t i = 0; i < n; ++i)
+        worst = std::max(worst, std::abs(out[i] - kept[i]));
+      EXPECT_LT(worst, 1e-11) << n << " samples";
+      const auto once = band_limit(t, noise, cutoff), twice = band_limit(t, once, cutoff);
+      double     change = 0, size = 0;
+      for (std::size_t i = 0; i < n; ++i)
+        {
+          change = std::max(change, std::abs(twice[i] - once[i]));
+          size   = std::max(size, std::abs(once[i]));
+        }
+      EXPECT_GT(size, 0.05) << n << " samples";
+      EXPECT_LT(change, 1e-11) << n << " samples";
+    }
 }
 
 // `--harmonics auto`: a loaded run is compared below half the reed's natural
