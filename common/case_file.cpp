@@ -1,6 +1,6 @@
-#include <algorithm>
 #include "common/case_file.h"
 
+#include <algorithm>
 #include <cstdlib>
 
 #include <charconv>
@@ -67,16 +67,70 @@ namespace rectify
     return parse(buffer.str(), path.string(), path.parent_path());
   }
 
+  namespace
+  {
+    /// The first byte where `text` is not UTF-8 (overlong forms, surrogates
+    /// and code points above U+10FFFF included), or npos.
+    std::size_t invalid_utf8(const std::string &text)
+    {
+      const auto        *b = reinterpret_cast<const unsigned char *>(text.data());
+      const std::size_t  n = text.size();
+      for (std::size_t i = 0; i < n;)
+        {
+          const unsigned c = b[i];
+          std::size_t    len;
+          unsigned       cp;
+          if (c < 0x80)
+            {
+              ++i;
+              continue;
+            }
+          if (c >= 0xC2 && c <= 0xDF)
+            len = 2, cp = c & 0x1F;
+          else if (c >= 0xE0 && c <= 0xEF)
+            len = 3, cp = c & 0x0F;
+          else if (c >= 0xF0 && c <= 0xF4)
+            len = 4, cp = c & 0x07;
+          else
+            return i;
+          if (i + len > n)
+            return i;
+          for (std::size_t k = 1; k < len; ++k)
+            {
+              if ((b[i + k] & 0xC0) != 0x80)
+                return i;
+              cp = (cp << 6) | (b[i + k] & 0x3F);
+            }
+          if ((len == 3 && (cp < 0x800 || (cp >= 0xD800 && cp <= 0xDFFF))) ||
+              (len == 4 && (cp < 0x10000 || cp > 0x10FFFF)))
+            return i;
+          i += len;
+        }
+      return std::string::npos;
+    }
+  } // namespace
+
   CaseFile CaseFile::parse(const std::string &text, const std::string &name,
                            const std::filesystem::path &base_dir)
   {
+    // TOML is UTF-8. Checked here, not left to toml11: its 3.7 reads past
+    // the end of its buffer reporting bad UTF-8 in a '...' string (found by
+    // fuzz/fuzz_case_file.cpp).
+    if (const auto at = invalid_utf8(text); at != std::string::npos)
+      {
+        const auto        line  = 1 + std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(at), '\n');
+        const std::size_t start = at == 0 ? 0 : text.find_last_of('\n', at - 1) + 1; // npos + 1 = 0
+        const std::size_t col   = at - start;
+        throw InputError("case file '" + name + "' is not valid TOML: line " + std::to_string(line) + ", byte " +
+                         std::to_string(col + 1) + " is not UTF-8 (a TOML file is UTF-8 text)");
+      }
     auto impl = std::make_shared<Impl>();
     try
       {
         std::istringstream in(text);
         impl->root = toml::parse(in, name);
       }
-    catch (const toml::syntax_error &e)
+    catch (const toml::exception &e) // syntax_error and the rest of toml11's
       {
         throw InputError("case file '" + name + "' is not valid TOML:\n" + e.what());
       }

@@ -182,8 +182,10 @@ namespace rectify::diagnosis
   std::vector<Outlier> MeasuredRun::repair_outliers(double threshold)
   {
     std::vector<Outlier> found;
-    for (auto &[column, x] : signals)
+    for (auto &entry : signals)
       {
+        const std::string   &column = entry.first; // not a structured binding: lambdas use x
+        std::vector<double> &x      = entry.second;
         if (x.size() < 5)
           continue;
         const double sd = white_noise_sd(x);
@@ -208,5 +210,25 @@ namespace rectify::diagnosis
       }
     std::sort(found.begin(), found.end(), [](const Outlier &a, const Outlier &b) { return a.time_s < b.time_s; });
     return found;
+  }
+
+  const std::vector<std::string> &signal_columns()
+  {
+    static const std::vector<std::string> columns{"outlet_pressure_Pa",  "chamber_pressure_Pa",
+                                                  "outlet_valve_m",      "strain",
+                                                  "actuator_position_m", "actuator_velocity_m_per_s"};
+    return columns;
+  }
+
+  bool uniformly_sampled(const std::vector<double> &t)
+  {
+    const std::size_t n = t.size();
+    if (n < 2)
+      return false;
+    const double dt = (t.back() - t.front()) / static_cast<double>(n - 1);
+    for (std::size_t i = 1; i < n; ++i)
+      if (std::abs(t[i] - t[i - 1] - dt) > 0.01 * dt)
+        return false;
+    return true;
   }
 } // namespace rectify::diagnosis

@@ -65,4 +65,10 @@ namespace rectify::diagnosis
     /// pattern one displaced sample leaves; a kink or a step does not).
     std::vector<Outlier> repair_outliers(double threshold = 6.0);
   };
+
+  /// The signals a run can carry beside time and drive, in report order.
+  const std::vector<std::string> &signal_columns();
+
+  /// Whether the times are evenly spaced (to 1 % of their mean step).
+  bool uniformly_sampled(const std::vector<double> &times);
 } // namespace rectify::diagnosis

@@ -14,26 +14,6 @@
 
 namespace rectify::diagnosis
 {
-  const std::vector<std::string> &signal_columns()
-  {
-    static const std::vector<std::string> columns{"outlet_pressure_Pa",  "chamber_pressure_Pa",
-                                                  "outlet_valve_m",      "strain",
-                                                  "actuator_position_m", "actuator_velocity_m_per_s"};
-    return columns;
-  }
-
-  bool uniformly_sampled(const std::vector<double> &t)
-  {
-    const std::size_t n = t.size();
-    if (n < 2)
-      return false;
-    const double dt = (t.back() - t.front()) / static_cast<double>(n - 1);
-    for (std::size_t i = 1; i < n; ++i)
-      if (std::abs(t[i] - t[i - 1] - dt) > 0.01 * dt)
-        return false;
-    return true;
-  }
-
   std::vector<double> low_pass(const std::vector<double> &t, const std::vector<double> &v,
                                double cutoff_Hz)
   {

@@ -23,9 +23,6 @@
 
 namespace rectify::diagnosis
 {
-  /// The signals a run can carry beside time and drive, in report order.
-  const std::vector<std::string> &signal_columns();
-
   /// One run as the workflow simulates it.
   struct RunSetup
   {
@@ -105,9 +102,6 @@ namespace rectify::diagnosis
   /// otherwise shake the rod at every frequency (the transducer resonates
   /// near 2.9 kHz) and put the noise's response into every residual.
   inline constexpr double drive_cutoff_harmonic = 10.0;
-
-  /// Whether the times are evenly spaced (to 1 % of their mean step).
-  bool uniformly_sampled(const std::vector<double> &times);
 
   /// Zero-phase windowed-sinc (Blackman) low-pass of uniformly sampled
   /// values (kernel +-3 cutoff periods, the record mirrored at its ends); returns

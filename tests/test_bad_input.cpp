@@ -4,11 +4,17 @@
 // ignored or ended in a solver failure.
 #include <gtest/gtest.h>
 
+#include <cstdint>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "common/case_file.h"
 #include "common/io.h"
+#include "fuzz/fuzz_targets.h"
 #include "system/parameters.h"
 #include "tests/cli_helpers.h"
 
@@ -135,4 +141,56 @@ TEST(BadInput, ACsvCutOffInsideItsLastLineIsRefused)
   expect_refused("simulate --frequency 10 --cycles 1 --current-csv " + (dir / "cut.csv").string() + " --out " +
                    out.string(),
                  {"cut.csv", "line 4", "cut off"}, out);
+}
+
+// Every input the fuzzers start from (fuzz/corpus/<target>) and every one
+// they found a fault with (fuzz/regressions/<target>) through the same calls
+// as the fuzz targets (fuzz/fuzz_targets.h): refused with InputError or
+// read, nothing else. The first finding: a case file with a '...' string
+// that is not UTF-8, on which toml11 3.7 read past its buffer; it is now
+// refused before toml11 sees it, naming the line and byte.
+TEST(BadInput, EveryFuzzInputIsReadOrRefusedCleanly)
+{
+  const std::filesystem::path fuzz = std::filesystem::path(RECTIFY_SOURCE_DIR) / "fuzz";
+  using Target = void (*)(const std::uint8_t *, std::size_t);
+  const std::vector<std::pair<std::string, Target>> targets{{"case_file", rectify::fuzz::case_file},
+                                                            {"measured_run", rectify::fuzz::measured_run},
+                                                            {"maps", rectify::fuzz::maps},
+                                                            {"drive", rectify::fuzz::drive}};
+  int replayed = 0;
+  for (const auto &[name, target] : targets)
+    for (const char *kind : {"corpus", "regressions"})
+      {
+        const auto dir = fuzz / kind / name;
+        if (!std::filesystem::is_directory(dir))
+          continue;
+        for (const auto &entry : std::filesystem::directory_iterator(dir))
+          {
+            std::ifstream     in(entry.path(), std::ios::binary);
+            const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+            EXPECT_NO_THROW(target(reinterpret_cast<const std::uint8_t *>(bytes.data()), bytes.size()))
+              << entry.path();
+            ++replayed;
+          }
+      }
+  EXPECT_GE(replayed, 10);
+
+  const auto crash = fuzz / "regressions" / "case_file" / "crash-33c172c003b0c22b9e52e3e980004e645eb3d4f1";
+  std::ifstream     in(crash, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_EQ(bytes.size(), 176u);
+  try
+    {
+      (void)CaseFile::parse(bytes, "crash.toml");
+      ADD_FAILURE() << "accepted";
+    }
+  catch (const InputError &e)
+    {
+      EXPECT_NE(std::string(e.what()).find("line 1, byte 2 is not UTF-8"), std::string::npos) << e.what();
+    }
+  // UTF-8 itself is fine (a comment with a micro sign); overlong forms and
+  // surrogates are not
+  EXPECT_NO_THROW((void)CaseFile::parse("# 127 \xC2\xB5m\n[reed]\n", "ok.toml"));
+  for (const std::string bad : {"a = 1\n# \xC0\xAF\n", "a = 1\n# \xED\xA0\x80\n", "a = '\xF5\x80\x80\x80'\n"})
+    EXPECT_THROW((void)CaseFile::parse(bad, "bad.toml"), InputError) << bad;
 }

@@ -1,0 +1,8 @@
+// libFuzzer target: rectify::fuzz::maps (fuzz_targets.h).
+#include "fuzz/fuzz_targets.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size)
+{
+  rectify::fuzz::maps(data, size);
+  return 0;
+}
