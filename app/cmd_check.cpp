@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cstdio>
 
+#include "common/output_lock.h"
 #include "app/commands.h"
 #include "common/io.h"
 #include "common/version.h"
@@ -83,10 +84,27 @@ namespace rectify::app
             }
           summary["default_case_search"] = places;
         }
-      ensure_directory(out);
+      // Every key a stage read, with its value and its admissible range.
+      const auto quoted = [](const std::string &text) {
+        if (text.find_first_of(",\"\n") == std::string::npos)
+          return text;
+        std::string q = "\"";
+        for (const char c : text)
+          q += c == '"' ? std::string("\"\"") : std::string(1, c);
+        return q + "\"";
+      };
+      std::string keys = "table,key,value,given,range\n";
+      const auto  read = file.read_keys();
+      for (const auto &k : read)
+        keys += k.table + "," + k.key + "," + quoted(k.value) + "," + (k.given ? "yes" : "default") + "," +
+                quoted(k.range) + "\n";
+      summary["n_keys"] = read.size();
+      OutputLock lock;
+      lock.acquire(out);
+      write_file_atomic(out / "keys.csv", keys);
       write_json(out / "summary.json", summary);
-      std::printf("%s: valid; every parameter, given or default, in %s\n", o.case_path.c_str(),
-                  (out / "summary.json").c_str());
+      std::printf("%s: valid; every parameter, given or default, in %s; each key's range in %s\n",
+                  o.case_path.c_str(), (out / "summary.json").c_str(), (out / "keys.csv").c_str());
     }
   } // namespace
 

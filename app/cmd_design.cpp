@@ -2,6 +2,7 @@
 // Run with `mpirun -np N rectify design ...` for N processes.
 #include <cstdio>
 
+#include "app/fe_lock.h"
 #include "app/commands.h"
 #include "common/io.h"
 #include "design/design.h"
@@ -32,8 +33,9 @@ namespace rectify::app
                                    {"interpolation tolerance", format_number(ss.tolerance)},
                                    {"processes", std::to_string(mpi.size())},
                                    {"output", o.out_dir}});
-          ensure_directory(out);
         }
+      OutputLock lock;
+      lock_on_root(lock, out, mpi, true);
       const auto r = design::run_design(file, out, mpi);
       if (!root)
         return;

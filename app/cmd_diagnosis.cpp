@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "common/output_lock.h"
 #include "app/commands.h"
 #include "common/io.h"
 #include "common/version.h"
@@ -38,6 +39,8 @@ namespace rectify::app
       o.synth.scenario    = system::parse_scenario(o.scenario);
       o.synth.current_pp_A   = std::isnan(o.current_pp_A) ? p.drive.current_pp_A : o.current_pp_A;
       o.synth.current_bias_A = std::isnan(o.current_bias_A) ? p.drive.current_bias_A : o.current_bias_A;
+      system::DriveParameters::check_currents(o.synth.current_pp_A, o.synth.current_bias_A, "--current-pp",
+                                              "--current-bias");
       for (const auto &kv : o.params)
         {
           const auto eq = kv.find('=');
@@ -68,9 +71,11 @@ namespace rectify::app
                               {"noise", format_number(o.synth.noise)},
                               {"seed", std::to_string(o.synth.seed)},
                               {"out", o.out_dir}});
-      const auto result = diagnosis::synthesise(p, system::load_valve_maps(p), o.synth);
       const std::filesystem::path out(o.out_dir);
-      ensure_directory(out);
+      OutputLock                  lock;
+      lock.acquire_if_exists(out);
+      const auto result = diagnosis::synthesise(p, system::load_valve_maps(p), o.synth);
+      lock.acquire(out);
       result.data.write(out / "data.csv");
       auto answer    = result.answer;
       answer["case"]  = o.case_path;
@@ -191,12 +196,13 @@ namespace rectify::app
                                  {"rounds", std::to_string(o.options.rounds)},
                                  {"out", o.out_dir}});
       o.options.progress = [](const std::string &line) { std::fprintf(stderr, "  fitted %s\n", line.c_str()); };
-      const auto map    = system::load_valve_maps(p);
-      const auto result = diagnosis::diagnose(p, map, runs, o.options);
-
       const std::filesystem::path out(o.out_dir);
       const bool                  made_out = !std::filesystem::exists(out);
-      ensure_directory(out);
+      OutputLock                  lock; // a folder in use is refused now, not after minutes of fits
+      lock.acquire_if_exists(out);
+      const auto map    = system::load_valve_maps(p);
+      const auto result = diagnosis::diagnose(p, map, runs, o.options);
+      lock.acquire(out);
       auto summary = diagnosis::to_json(result, runs);
       summary["command"]         = "diagnose";
       summary["rectify_version"] = RECTIFY_VERSION;

@@ -1,6 +1,7 @@
 // `rectify map-thesis`: the thesis's R(x) curve as a map file (maps/).
 #include <cstdio>
 
+#include "common/output_lock.h"
 #include "app/commands.h"
 #include "common/io.h"
 #include "common/version.h"
@@ -28,7 +29,8 @@ namespace rectify::app
       const auto map = maps::thesis_resistance_map(o.n);
       const auto sys = system::SystemParameters::from_case(file);
       const std::filesystem::path out(o.out_dir);
-      ensure_directory(out);
+      OutputLock lock;
+      lock.acquire(out);
       // As a map set: the thesis's R(x) with the constant force area A_r.
       maps::map_set_from_resistance(map, sys.reed.pressure_area_m2).write(out);
       // Plot from 1 um up (log axes), without the closed-valve node at x = 0.

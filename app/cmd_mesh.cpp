@@ -1,6 +1,7 @@
 // `rectify mesh`: the reed valve's fluid domain at one tip opening (mesher/).
 #include <cstdio>
 
+#include "common/output_lock.h"
 #include "app/commands.h"
 #include "common/io.h"
 #include "common/version.h"
@@ -72,9 +73,11 @@ namespace rectify::app
                                                          std::to_string(s.reed_layers) + " / " +
                                                          std::to_string(s.above_layers)},
                              {"output", o.out_dir}});
-      const auto      result = mesher::mesh_valve(p, opening, true);
       const std::filesystem::path out(o.out_dir);
-      ensure_directory(out); // only now: bad input leaves no output folder
+      OutputLock                  lock;
+      lock.acquire_if_exists(out);
+      const auto      result = mesher::mesh_valve(p, opening, true);
+      lock.acquire(out); // only now: bad input leaves no output folder
       const auto     &info   = result.info;
       nlohmann::json  summary = mesher::to_json(info);
       summary["command"]         = "mesh";

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <sstream>
 
+#include "common/output_lock.h"
 #include "app/commands.h"
 #include "common/io.h"
 #include "common/version.h"
@@ -43,7 +44,8 @@ namespace rectify::app
                                 std::to_string(s.fe_degree)},
                      {"out", o.out_dir}});
       const std::filesystem::path out(o.out_dir);
-      ensure_directory(out);
+      OutputLock                  lock;
+      lock.acquire(out);
       SolveOptions so;
       so.vtu_file          = out / "reed.vtu";
       const auto    r      = solve_reed(p, so);
@@ -218,6 +220,8 @@ namespace rectify::app
                     {{"case", o.case_path},
                      {"thickness [m]", o.thickness + " (" + std::to_string(thicknesses.size()) + " values)"},
                      {"out", o.out_dir}});
+      OutputLock lock;
+      lock.acquire(out);
       const auto r = reed_thickness_sweep(base, thicknesses, out);
       r.map.write(out / "reed-map.csv");
       const double slope   = r.k_loglog_slope;

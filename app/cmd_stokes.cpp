@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <memory>
 
+#include "app/fe_lock.h"
 #include "app/commands.h"
 #include "common/io.h"
 #include "common/version.h"
@@ -81,14 +82,16 @@ namespace rectify::app
                                  {"equations", o.navier_stokes ? "Stokes, then steady Navier-Stokes (Newton)" : "Stokes"},
                                  {"processes", std::to_string(mpi.size())},
                                  {"output", o.out_dir}});
+      const std::filesystem::path out(o.out_dir);
+      OutputLock                  lock;
+      lock_on_root(lock, out, mpi, false);
       const auto valve = mesher::mesh_valve(mp, opening, root);
       // The folder appears with the results: the solver makes it for its VTU
       // output after solving, or here (no VTU); an interrupted solve leaves none.
-      const std::filesystem::path out(o.out_dir);
       const auto r = stokes::solve_stokes(valve.mesh, fp, o.no_vtu ? std::filesystem::path{} : out, true);
       if (!root)
         return;
-      ensure_directory(out);
+      lock.acquire(out);
       const double mu = fp.fluid.viscosity_Pa_s, Q = fp.settings.flow_rate_m3_per_s;
       nlohmann::json summary = result_json(r);
       summary["command"]         = "stokes";
@@ -168,6 +171,8 @@ namespace rectify::app
         {"fluid", {fp.fluid.viscosity_Pa_s, fp.fluid.density_kg_per_m3}},
         {"flow", {fp.settings.flow_rate_m3_per_s, fp.settings.outlet_pressure_Pa, fp.settings.solver,
                   fp.settings.tolerance}}};
+      OutputLock lock;
+      lock_on_root(lock, out, mpi, true);
       std::size_t n_resumed = 0;
       const auto  solved    = stokes::fixed_resistance_sweep(mp, fp, openings, out, fingerprint, mpi, &n_resumed);
       if (!root)

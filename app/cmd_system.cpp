@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <sstream>
 
+#include "common/output_lock.h"
 #include "app/commands.h"
 #include "common/io.h"
 #include "common/version.h"
@@ -68,9 +69,8 @@ namespace rectify::app
           }
         if (fd_jacobian)
           p.solver.jacobian = "finite-difference";
-        if (!(p.drive.current_pp_A >= 0) || !std::isfinite(p.drive.current_pp_A))
-          throw InputError("--current-pp " + format_number(p.drive.current_pp_A) +
-                           ": must be >= 0");
+        system::DriveParameters::check_currents(p.drive.current_pp_A, p.drive.current_bias_A, "--current-pp",
+                                                "--current-bias");
         return p;
       }
 
@@ -142,6 +142,9 @@ namespace rectify::app
                         {"out", o.out_dir}});
       if (o.cycles == 0)
         throw InputError("--cycles 0: must be >= 1");
+      const std::filesystem::path out(o.out_dir);
+      OutputLock                  lock; // a folder in use is refused now, not after the run
+      lock.acquire_if_exists(out);
       system::Model model(p, system::load_valve_maps(p), valves, scenario, make_drive(p, o.frequency_Hz));
       auto          run = o.run_options(p);
       run.n_cycles      = o.cycles;
@@ -155,8 +158,7 @@ namespace rectify::app
         };
       const system::RunResult r = system::run(model, run);
 
-      const std::filesystem::path out(o.out_dir);
-      ensure_directory(out);
+      lock.acquire(out);
       r.series->write(out / "timeseries.csv");
       const auto ts = out / "timeseries.csv";
       // Long runs: plot at most about 20 000 rows a curve (the CSV keeps them all).
@@ -292,7 +294,8 @@ namespace rectify::app
                      {"out", o.out_dir}});
 
       const std::filesystem::path out(o.out_dir);
-      ensure_directory(out);
+      OutputLock                  lock;
+      lock.acquire(out);
       const system::SweepResult r = system::run_sweep(p, s, out);
 
       // Long table: every run with its diagnostics.

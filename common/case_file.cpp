@@ -217,6 +217,7 @@ namespace rectify
     if (!bounds.contains(value))
       throw InputError(where(table, key) + (v ? line_of(*v) : " (default)") + " = " +
                        format_number(value) + ": must be " + bounds.describe());
+    record(table, key, format_number(value), bounds.describe());
     return value;
   }
 
@@ -251,6 +252,10 @@ namespace rectify
         throw InputError(where(table, key) + (v ? line_of(*v) : " (default)") + ", entry " +
                          std::to_string(i + 1) + " = " + format_number(values[i]) + ": must be " +
                          bounds.describe());
+    std::string list;
+    for (const double x : values)
+      list += (list.empty() ? "" : " ") + format_number(x);
+    record(table, key, "[" + list + "]", "each " + bounds.describe());
     return values;
   }
 
@@ -271,6 +276,8 @@ namespace rectify
       throw InputError(where(table, key) + (v ? line_of(*v) : " (default)") + " = " +
                        std::to_string(value) + ": must be in [" + std::to_string(min) + ", " +
                        std::to_string(max) + "]");
+    record(table, key, std::to_string(value), "whole number in [" + std::to_string(min) + ", " +
+                                                std::to_string(max) + "]");
     return value;
   }
 
@@ -301,7 +308,29 @@ namespace rectify
             throw InputError(where(table, key) + " = '" + value + "': must be one of " + list);
           }
       }
+    std::string range = "text";
+    if (!allowed.empty())
+      {
+        range = "one of";
+        for (const auto &a : allowed)
+          range += " '" + a + "'";
+      }
+    record(table, key, value, range);
     return value;
+  }
+
+  void CaseFile::record(const std::string &table, const std::string &key, const std::string &value,
+                        const std::string &range) const
+  {
+    read_[table + "." + key] = {table, key, value, range, has(table, key)};
+  }
+
+  std::vector<CaseFile::KeyRecord> CaseFile::read_keys() const
+  {
+    std::vector<KeyRecord> out;
+    for (const auto &[name, r] : read_)
+      out.push_back(r);
+    return out;
   }
 
   void CaseFile::check_all_keys_known() const

@@ -9,6 +9,7 @@
 
 #include <filesystem>
 #include <limits>
+#include <map>
 #include <memory>
 #include <set>
 #include <stdexcept>
@@ -82,6 +83,17 @@ namespace rectify
     /// parameter struct has read or declared. Call once every struct is read.
     void check_all_keys_known() const;
 
+    /// A key some stage read, with its value (the file's or the default) and
+    /// its admissible range as the reader states it.
+    struct KeyRecord
+    {
+      std::string table, key, value, range;
+      bool        given; ///< in the file (else the default)
+    };
+    /// Every key read so far, sorted by table and key: `rectify check` lists
+    /// them (keys.csv), and a test checks each has a stated range.
+    std::vector<KeyRecord> read_keys() const;
+
     /// "file [table] key" for messages.
     std::string where(const std::string &table, const std::string &key) const;
 
@@ -92,6 +104,9 @@ namespace rectify
     std::string                 name_;
     std::filesystem::path       base_dir_;
     mutable std::set<std::string> known_; // "table.key"
+    mutable std::map<std::string, KeyRecord> read_; // "table.key"
+    void record(const std::string &table, const std::string &key, const std::string &value,
+                const std::string &range) const;
   };
 
   /// Where the reference case (the default --case) is looked for, in order:

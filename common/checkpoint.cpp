@@ -1,6 +1,11 @@
 #include "common/checkpoint.h"
 
+#include <cerrno>
+#include <cstring>
+#include <fcntl.h>
+#include <sys/stat.h>
 #include <fstream>
+#include <unistd.h>
 
 #include "common/case_file.h"
 #include "common/io.h"
@@ -29,8 +34,8 @@ namespace rectify
                            json.string() + "); choose another --out, or delete its " + name +
                            ".* files");
         std::ifstream in(csv);
-        std::string   line;
-        bool          first = true;
+        std::string   line, kept = header + "\n";
+        bool          first = true, cut = false;
         while (std::getline(in, line))
           {
             const bool complete = !in.eof(); // a last line without newline was cut off
@@ -41,30 +46,62 @@ namespace rectify
                   continue;
               }
             if (complete && !line.empty())
-              rows_.push_back(line);
+              {
+                rows_.push_back(line);
+                kept += line + "\n";
+              }
+            else if (!complete && !line.empty())
+              cut = true;
           }
+        // A row cut off by a kill (or a full disk) goes, else the next row
+        // would be appended to its end.
+        if (cut)
+          write_file_atomic(csv, kept);
       }
     else
       {
         write_json(json, fingerprint);
         write_file_atomic(csv, header + "\n");
       }
-    file_ = std::fopen(csv.c_str(), "a");
-    if (!file_)
-      throw std::runtime_error("cannot append to '" + csv.string() + "'");
+    path_ = csv;
+    fd_   = ::open(csv.c_str(), O_WRONLY | O_APPEND | O_CLOEXEC);
+    if (fd_ < 0)
+      throw std::runtime_error("cannot append to '" + csv.string() + "': " + std::strerror(errno));
   }
 
   Checkpoint::~Checkpoint()
   {
-    if (file_)
-      std::fclose(file_);
+    if (fd_ >= 0)
+      ::close(fd_);
   }
 
   void Checkpoint::append(const std::string &row)
   {
     std::lock_guard<std::mutex> lock(mutex_);
     const std::string           line = row + "\n";
-    std::fwrite(line.data(), 1, line.size(), file_);
-    std::fflush(file_);
+    // One write per row: a kill leaves the row whole or cut (then dropped
+    // when reopened), never two rows run together. A row the disk had no
+    // room for is cut back off at once, so that no reader sees half of it.
+    struct stat before;
+    const bool  sized = ::fstat(fd_, &before) == 0;
+    std::size_t done  = 0;
+    while (done < line.size())
+      {
+        const ssize_t n = ::write(fd_, line.data() + done, line.size() - done);
+        if (n < 0 && errno == EINTR)
+          continue;
+        if (n <= 0)
+          {
+            const int error = n < 0 ? errno : EIO;
+            // If it cannot be cut back (a read-only disk), the Checkpoint
+            // that reopens the file drops it.
+            const bool left_cut = done > 0 && !(sized && ::ftruncate(fd_, before.st_size) == 0);
+            throw std::runtime_error("cannot append to '" + path_.string() + "': " +
+                                     (n < 0 ? std::strerror(error) : "nothing written") +
+                                     (left_cut ? " (a row is left cut off there)" : "") +
+                                     "; the rows before it are kept: run the same command again to go on");
+          }
+        done += static_cast<std::size_t>(n);
+      }
   }
 } // namespace rectify

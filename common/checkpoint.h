@@ -5,7 +5,6 @@
 // does only the rest; with other settings it refuses rather than mix them.
 #pragma once
 
-#include <cstdio>
 #include <filesystem>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -27,12 +26,14 @@ namespace rectify
 
     /// The complete rows found when opening (a row cut off by a kill is dropped).
     const std::vector<std::string> &finished_rows() const { return rows_; }
-    /// Appends one row (without newline) and flushes it. Thread-safe.
+    /// Appends one row (without newline) in one write. Thread-safe. Throws
+    /// std::runtime_error naming the file if it cannot (a full disk).
     void append(const std::string &row);
 
   private:
     std::vector<std::string> rows_;
-    std::FILE               *file_ = nullptr;
+    std::filesystem::path    path_;
+    int                      fd_ = -1;
     std::mutex               mutex_;
   };
 } // namespace rectify

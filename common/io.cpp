@@ -3,6 +3,8 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstring>
+#include <fcntl.h>
 #include <fstream>
 #include <sstream>
 #include <unistd.h>
@@ -13,28 +15,32 @@ namespace rectify
 {
   void write_file_atomic(const std::filesystem::path &path, const std::string &content)
   {
-    const std::filesystem::path tmp =
-      path.string() + ".tmp." + std::to_string(::getpid());
-    {
-      std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-      if (!out)
-        throw std::runtime_error("cannot write '" + tmp.string() + "'");
-      out << content;
-      out.flush();
-      if (!out)
-        {
-          std::filesystem::remove(tmp);
-          throw std::runtime_error("writing '" + tmp.string() + "' failed (disk full?)");
-        }
-    }
-    std::error_code ec;
-    std::filesystem::rename(tmp, path, ec);
-    if (ec)
+    const std::filesystem::path tmp = path.string() + ".tmp." + std::to_string(::getpid());
+    const auto fail = [&](const std::string &what, int error) {
+      std::error_code ec;
+      std::filesystem::remove(tmp, ec);
+      throw std::runtime_error("cannot write '" + path.string() + "': " + what + std::strerror(error));
+    };
+    const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+    if (fd < 0)
+      fail("", errno);
+    for (std::size_t done = 0; done < content.size();)
       {
-        std::filesystem::remove(tmp);
-        throw std::runtime_error("cannot move '" + tmp.string() + "' to '" + path.string() +
-                                 "': " + ec.message());
+        const ssize_t n = ::write(fd, content.data() + done, content.size() - done);
+        if (n < 0 && errno == EINTR)
+          continue;
+        if (n <= 0)
+          {
+            const int error = n < 0 ? errno : EIO;
+            ::close(fd);
+            fail("", error);
+          }
+        done += static_cast<std::size_t>(n);
       }
+    if (::close(fd) != 0)
+      fail("", errno);
+    if (::rename(tmp.c_str(), path.c_str()) != 0)
+      fail("moving '" + tmp.filename().string() + "' into place: ", errno);
   }
 
   void write_json(const std::filesystem::path &path, const nlohmann::json &value)
@@ -233,7 +239,9 @@ namespace rectify
     for (double v : values)
       {
         std::snprintf(buf, sizeof(buf), "%.17g", v);
-        line += (line.empty() ? "" : ",") + std::string(buf);
+        if (!line.empty())
+          line += ',';
+        line += buf;
       }
     return line;
   }

@@ -8,7 +8,8 @@ namespace rectify::stokes
     FlowSettings      s;
     const std::string t = "flow";
     s.flow_rate_m3_per_s = f.real(t, "flow_rate_m3_per_s", s.flow_rate_m3_per_s, Bounds::positive());
-    s.outlet_pressure_Pa = f.real(t, "outlet_pressure_Pa", s.outlet_pressure_Pa, Bounds{});
+    s.outlet_pressure_Pa = f.real(t, "outlet_pressure_Pa", s.outlet_pressure_Pa,
+                                  Bounds::open(-101325.0, 1e9)); // gauge: above vacuum
     s.solver             = f.text(t, "solver", s.solver, {"auto", "direct", "iterative"});
     s.direct_max_dofs    = f.integer(t, "direct_max_dofs", s.direct_max_dofs, 0, 100000000);
     s.schur              = f.text(t, "schur", s.schur, {"gap", "mass"});

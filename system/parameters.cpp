@@ -78,6 +78,9 @@ namespace rectify::system
                            ": give either properties_map or stiffness_N_per_m and "
                            "effective_mass_kg, not both");
         const auto path = f.resolve(map);
+        if (!std::filesystem::is_regular_file(path))
+          throw InputError(f.where(t, "properties_map") + " = '" + map + "': no such file ('" + path.string() +
+                           "', relative to the case file's folder); `rectify map-stiffness` writes one");
         const auto at   = maps::ReedMap::read(path).at(thickness, mass_column, f.where(t, "properties_thickness_m"));
         p.stiffness_N_per_m = at.stiffness_N_per_m;
         p.effective_mass_kg = at.mass_kg;
@@ -204,11 +207,17 @@ namespace rectify::system
   {
     DriveParameters   p;
     const std::string t = "drive";
-    p.current_pp_A   = f.real(t, "current_pp_A", p.current_pp_A, non_negative);
-    p.current_bias_A = f.real(t, "current_bias_A", p.current_bias_A, Bounds{});
+    p.current_pp_A   = f.real(t, "current_pp_A", p.current_pp_A, DriveParameters::current_pp_bounds());
+    p.current_bias_A = f.real(t, "current_bias_A", p.current_bias_A, DriveParameters::current_bias_bounds());
     p.waveform       = f.text(t, "waveform", p.waveform);
     if (p.waveform != "sine")
-      p.waveform = f.resolve(p.waveform).string();
+      {
+        p.waveform = f.resolve(p.waveform).string();
+        if (!std::filesystem::is_regular_file(p.waveform))
+          throw InputError(f.where(t, "waveform") + " = '" + f.text(t, "waveform", "") +
+                           "': neither \"sine\" nor a file (no such file '" + p.waveform +
+                           "', relative to the case file's folder)");
+      }
     p.coil_dynamics = f.text(t, "coil_dynamics", p.coil_dynamics, {"off", "on"});
     return p;
   }
@@ -245,6 +254,15 @@ namespace rectify::system
         {
           if (p.valves.map_set[v].empty())
             continue;
+          if (!std::filesystem::is_directory(p.valves.map_set[v]))
+            {
+              const std::string key = f.has("valves", "map_set") ? "map_set" : v == 0 ? "outlet_map_set" : "inlet_map_set";
+              throw InputError((override_case ? std::string("--map-set") :
+                                                f.where("valves", key) + " = '" + f.text("valves", key, "") + "'") +
+                               ": no such map set (folder '" + p.valves.map_set[v] + "'" +
+                               (override_case ? "" : ", relative to the case file's folder") +
+                               "); `rectify design` writes one");
+            }
           const auto set = maps::MapSet::read(p.valves.map_set[v]);
           set.check_matches(tables, f.name());
           if (!set.reed())
@@ -482,5 +500,15 @@ namespace rectify::system
         {"jacobian", solver.jacobian},
         {"samples_per_cycle", solver.samples_per_cycle},
         {"max_steps_per_cycle", solver.max_steps_per_cycle}}}};
+  }
+  void DriveParameters::check_currents(double pp_A, double bias_A, const std::string &pp_name,
+                                       const std::string &bias_name)
+  {
+    if (!current_pp_bounds().contains(pp_A))
+      throw InputError(pp_name + " = " + format_number(pp_A) + ": must be " + current_pp_bounds().describe() +
+                       " (A peak-to-peak)");
+    if (!current_bias_bounds().contains(bias_A))
+      throw InputError(bias_name + " = " + format_number(bias_A) + ": must be " +
+                       current_bias_bounds().describe() + " (A)");
   }
 } // namespace rectify::system

@@ -140,6 +140,15 @@ namespace rectify::system
 
   struct DriveParameters
   {
+    /// The coil currents' admissible ranges (case file and command line):
+    /// wide for any Terfenol-D drive, narrow enough to catch a current
+    /// given in mA.
+    static Bounds current_pp_bounds() { return Bounds::closed(0.0, 2000.0); }
+    static Bounds current_bias_bounds() { return Bounds::closed(-1000.0, 1000.0); }
+    /// InputError naming `what` (a key or an option) unless both are in range.
+    static void check_currents(double pp_A, double bias_A, const std::string &pp_name,
+                               const std::string &bias_name);
+
     double      current_pp_A   = 20.0;
     double      current_bias_A = 10.0;
     std::string waveform       = "sine"; ///< "sine" or the resolved path of a CSV (time_s, current_A)

@@ -4,10 +4,13 @@
 // ignored or ended in a solver failure.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <set>
+#include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
@@ -193,4 +196,173 @@ TEST(BadInput, EveryFuzzInputIsReadOrRefusedCleanly)
   EXPECT_NO_THROW((void)CaseFile::parse("# 127 \xC2\xB5m\n[reed]\n", "ok.toml"));
   for (const std::string bad : {"a = 1\n# \xC0\xAF\n", "a = 1\n# \xED\xA0\x80\n", "a = '\xF5\x80\x80\x80'\n"})
     EXPECT_THROW((void)CaseFile::parse(bad, "bad.toml"), InputError) << bad;
+}
+
+namespace
+{
+  /// One line of a CSV whose text cells may be quoted ("a, b" and "" for ").
+  std::vector<std::string> split_quoted(const std::string &line)
+  {
+    std::vector<std::string> cells(1);
+    bool                     quoted = false;
+    for (std::size_t i = 0; i < line.size(); ++i)
+      {
+        const char c = line[i];
+        if (quoted && c == '"' && i + 1 < line.size() && line[i + 1] == '"')
+          cells.back() += '"', ++i;
+        else if (c == '"')
+          quoted = !quoted;
+        else if (c == ',' && !quoted)
+          cells.emplace_back();
+        else
+          cells.back() += c;
+      }
+    return cells;
+  }
+
+  /// Values just outside a range as `CaseFile::read_keys` states it, in
+  /// TOML; empty for a range with no outside (text).
+  std::vector<std::string> outside(const std::string &range)
+  {
+    const auto number = [](double x, bool whole) {
+      return whole ? std::to_string(static_cast<long long>(x)) : format_number(x) + (std::floor(x) == x ? ".0" : "");
+    };
+    const bool whole = range.rfind("whole number", 0) == 0;
+    const bool each  = range.rfind("each ", 0) == 0;
+    std::string r = each ? range.substr(5) : range;
+    std::vector<std::string> values;
+    if (r.rfind("one of", 0) == 0)
+      return {"\"no-such-choice\""};
+    if (r.rfind("> ", 0) == 0 || r.rfind(">= ", 0) == 0)
+      {
+        const double lo = std::stod(r.substr(r.find(' ') + 1));
+        values.push_back(number(r[1] == '=' ? lo - std::max(1.0, std::abs(lo)) * (whole ? 1 : 1e-3) : lo, whole));
+      }
+    else if (r.rfind("< ", 0) == 0 || r.rfind("<= ", 0) == 0)
+      {
+        const double hi = std::stod(r.substr(r.find(' ') + 1));
+        values.push_back(number(r[1] == '=' ? hi + std::max(1.0, std::abs(hi)) * 1e-3 : hi, whole));
+      }
+    else if (r.find('[') != std::string::npos || r.find('(') != std::string::npos)
+      {
+        const auto   open  = r.find_first_of("[(");
+        const auto   comma = r.find(',', open);
+        const auto   close = r.find_first_of("])", comma);
+        const double lo = std::stod(r.substr(open + 1, comma - open - 1));
+        const double hi = std::stod(r.substr(comma + 1, close - comma - 1));
+        const double step = whole ? 1.0 : 1e-3 * std::max(std::abs(hi - lo), 1e-300);
+        values.push_back(number(r[open] == '[' ? lo - step : lo, whole));
+        values.push_back(number(r[close] == ']' ? hi + step : hi, whole));
+      }
+    if (each)
+      for (auto &v : values)
+        v = "[" + v + "]";
+    return values;
+  }
+
+  /// `text` without the line that starts with `start`.
+  std::string drop_line(const std::string &text, const std::string &start)
+  {
+    const auto at = text.find("\n" + start);
+    EXPECT_NE(at, std::string::npos) << start;
+    return at == std::string::npos ? text : text.substr(0, at) + text.substr(text.find('\n', at + 1));
+  }
+
+  /// The reference case with [table] key = value (replacing the key's line,
+  /// or added under the table's header).
+  std::string with_key(const std::string &text, const std::string &table, const std::string &key,
+                       const std::string &value)
+  {
+    std::istringstream in(text);
+    std::string        out, current, line;
+    bool               done = false;
+    const std::string  toml_key = key.find('.') == std::string::npos ? key : "\"" + key + "\"";
+    while (std::getline(in, line))
+      {
+        const auto first = line.find_first_not_of(" \t");
+        if (first != std::string::npos && line[first] == '[')
+          {
+            current = line.substr(first + 1, line.find(']') - first - 1);
+            out += line + "\n";
+            if (current == table && !done && text.find("\n" + toml_key + " ") == std::string::npos &&
+                text.find("\n" + toml_key + "=") == std::string::npos)
+              {
+                out += toml_key + " = " + value + "\n";
+                done = true;
+              }
+            continue;
+          }
+        if (!done && current == table && line.rfind(toml_key, 0) == 0 &&
+            line.find_first_not_of(" =", toml_key.size()) > toml_key.size())
+          {
+            out += toml_key + " = " + value + "\n";
+            done = true;
+            continue;
+          }
+        out += line + "\n";
+      }
+    EXPECT_TRUE(done) << "[" << table << "] " << key << " not placed";
+    return out;
+  }
+} // namespace
+
+TEST(BadInput, EveryCaseKeyHasARangeAndAValueOutsideItIsRefusedNamingTheKey)
+{
+  // The audit of issue 16 as a test: `check` lists every key a stage reads
+  // with its range (keys.csv). Each must state a range ("finite" alone is
+  // none), and a case with any one key set just outside its range is refused
+  // (exit 2) naming the table, the key and the value, with no output.
+  const auto dir = scratch("bad_input_keys");
+  auto       r   = rectify_cli("check --out " + (dir / "ok").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream in(dir / "ok" / "keys.csv");
+  std::string   line;
+  std::getline(in, line);
+  ASSERT_EQ(line, "table,key,value,given,range");
+  const std::string reference = reference_text();
+  std::size_t       n_keys = 0, n_tried = 0;
+  const std::set<std::string> text_keys{"drive.waveform", "reed.properties_map", "valves.inlet_map_set",
+                                        "valves.map_set", "valves.outlet_map_set", "valves.resistance_map"};
+  while (std::getline(in, line))
+    {
+      const auto cells = split_quoted(line);
+      ASSERT_EQ(cells.size(), 5u) << line;
+      const std::string &table = cells[0], &key = cells[1], &range = cells[4];
+      ++n_keys;
+      EXPECT_NE(range, "finite") << "[" << table << "] " << key << " has no stated range";
+      if (range == "text")
+        {
+          // A file (or "sine"): a missing one is refused naming the key.
+          EXPECT_TRUE(text_keys.count(table + "." + key)) << "[" << table << "] " << key << ": free text";
+          // The reference case written elsewhere: its R(x) map by full path;
+          // a map set or a reed map replaces the keys it gives.
+          std::string base = replace(reference, "resistance_map = \"thesis-resistance.csv\"",
+                                     "resistance_map = \"" +
+                                       (reference_case_path().parent_path() / "thesis-resistance.csv").string() +
+                                       "\"");
+          if (key.find("map_set") != std::string::npos)
+            base = drop_line(drop_line(base, "resistance_map = "), "interpolation = ");
+          if (key == "properties_map")
+            base = drop_line(drop_line(base, "stiffness_N_per_m = 6650"), "effective_mass_kg = 0.3643e-3");
+          const auto case_file = dir / (table + "." + key + ".toml");
+          write_file_atomic(case_file, with_key(base, table, key, "\"no-such-file.csv\""));
+          expect_refused("check --case " + case_file.string() + " --out " + (dir / "out").string(),
+                         {key, "no-such-file.csv"}, dir / "out");
+          ++n_tried;
+          continue;
+        }
+      for (const auto &value : outside(range))
+        {
+          SCOPED_TRACE("[" + table + "] " + key + " = " + value + " (range " + range + ")");
+          const auto case_file = dir / (table + "." + key + ".toml");
+          write_file_atomic(case_file, with_key(reference, table, key, value));
+          expect_refused("check --case " + case_file.string() + " --out " + (dir / "out").string(), {key},
+                         dir / "out");
+          ++n_tried;
+        }
+    }
+  EXPECT_GT(n_keys, 100u);
+  EXPECT_GT(n_tried, n_keys);
+  RecordProperty("keys", static_cast<int>(n_keys));
+  RecordProperty("cases_tried", static_cast<int>(n_tried));
 }

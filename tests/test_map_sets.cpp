@@ -187,7 +187,7 @@ TEST(MapSets, CaseAndMapSetMustAgree)
   refused(use + "[reed]\nstiffness_N_per_m = 6650\n", "stiffness_N_per_m");
   refused(use + "resistance_map = \"x.csv\"\n", "resistance_map");
   refused(use + "outlet_map_set = \"" + dir.string() + "\"\n", "outlet_map_set");
-  refused("[valves]\nmap_set = \"" + (dir / "nowhere").string() + "\"\n", "no such folder");
+  refused("[valves]\nmap_set = \"" + (dir / "nowhere").string() + "\"\n", "[valves] map_set = ");
   // One valve on the map set, the other on the thesis's R(x) and A_r.
   const auto one = SystemParameters::from_case(
     CaseFile::parse("[valves]\noutlet_map_set = \"" + dir.string() + "\"\n", "one.toml",
