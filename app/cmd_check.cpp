@@ -4,8 +4,9 @@
 #include <algorithm>
 #include <cstdio>
 
-#include "common/output_lock.h"
 #include "app/commands.h"
+#include "common/case_keys.h"
+#include "common/output_lock.h"
 #include "common/io.h"
 #include "common/version.h"
 #include "mesher/parameters.h"
@@ -84,21 +85,8 @@ namespace rectify::app
             }
           summary["default_case_search"] = places;
         }
-      // Every key a stage read, with its value and its admissible range.
-      const auto quoted = [](const std::string &text) {
-        if (text.find_first_of(",\"\n") == std::string::npos)
-          return text;
-        std::string q = "\"";
-        for (const char c : text)
-          q += c == '"' ? std::string("\"\"") : std::string(1, c);
-        return q + "\"";
-      };
-      std::string keys = "table,key,value,given,range\n";
-      const auto  read = file.read_keys();
-      for (const auto &k : read)
-        keys += k.table + "," + k.key + "," + quoted(k.value) + "," + (k.given ? "yes" : "default") + "," +
-                quoted(k.range) + "\n";
-      summary["n_keys"] = read.size();
+      const std::string keys = case_keys_csv(file); // every key a stage read, with its range
+      summary["n_keys"]      = file.read_keys().size();
       OutputLock lock;
       lock.acquire(out);
       write_file_atomic(out / "keys.csv", keys);

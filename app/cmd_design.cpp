@@ -2,8 +2,8 @@
 // Run with `mpirun -np N rectify design ...` for N processes.
 #include <cstdio>
 
-#include "app/fe_lock.h"
 #include "app/commands.h"
+#include "app/fe_lock.h"
 #include "common/io.h"
 #include "design/design.h"
 

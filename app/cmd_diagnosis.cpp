@@ -5,9 +5,9 @@
 #include <cmath>
 #include <cstdio>
 
-#include "common/output_lock.h"
 #include "app/commands.h"
 #include "common/io.h"
+#include "common/output_lock.h"
 #include "common/version.h"
 #include <fstream>
 #include <sstream>

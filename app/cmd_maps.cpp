@@ -1,9 +1,9 @@
 // `rectify map-thesis`: the thesis's R(x) curve as a map file (maps/).
 #include <cstdio>
 
-#include "common/output_lock.h"
 #include "app/commands.h"
 #include "common/io.h"
+#include "common/output_lock.h"
 #include "common/version.h"
 #include "common/plot.h"
 #include "maps/map_set.h"

@@ -1,9 +1,9 @@
 // `rectify mesh`: the reed valve's fluid domain at one tip opening (mesher/).
 #include <cstdio>
 
-#include "common/output_lock.h"
 #include "app/commands.h"
 #include "common/io.h"
+#include "common/output_lock.h"
 #include "common/version.h"
 #include "common/plot.h"
 #include "mesher/mesher.h"

@@ -4,9 +4,9 @@
 #include <cstdio>
 #include <sstream>
 
-#include "common/output_lock.h"
 #include "app/commands.h"
 #include "common/io.h"
+#include "common/output_lock.h"
 #include "common/version.h"
 #include "common/plot.h"
 #include "stiffness_solver/elasticity.h"

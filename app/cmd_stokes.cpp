@@ -4,8 +4,8 @@
 #include <cstdio>
 #include <memory>
 
-#include "app/fe_lock.h"
 #include "app/commands.h"
+#include "app/fe_lock.h"
 #include "common/io.h"
 #include "common/version.h"
 #include "common/plot.h"

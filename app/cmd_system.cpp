@@ -3,9 +3,9 @@
 #include <cstdio>
 #include <sstream>
 
-#include "common/output_lock.h"
 #include "app/commands.h"
 #include "common/io.h"
+#include "common/output_lock.h"
 #include "common/version.h"
 #include "common/plot.h"
 #include "common/progress.h"

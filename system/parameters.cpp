@@ -17,6 +17,19 @@ namespace rectify::system
   {
     const Bounds positive     = Bounds::positive();
     const Bounds non_negative = Bounds::non_negative();
+
+    /// InputError naming the case file, [table] key, its value and where it
+    /// was looked for, unless `path` (the value resolved) exists as a file
+    /// (or, with `folder`, a folder). `maker`: the command that writes one.
+    void require_existing(const CaseFile &f, const std::string &table, const std::string &key,
+                          const std::filesystem::path &path, bool folder, const std::string &maker = "")
+    {
+      if (folder ? std::filesystem::is_directory(path) : std::filesystem::is_regular_file(path))
+        return;
+      throw InputError(f.where(table, key) + " = '" + f.text(table, key, "") + "': no such " +
+                       (folder ? "folder" : "file") + " ('" + path.string() +
+                       "', relative to the case file's folder)" + (maker.empty() ? "" : "; `" + maker + "` writes one"));
+    }
   } // namespace
 
   double TransducerParameters::rod_stiffness_N_per_m() const
@@ -78,9 +91,7 @@ namespace rectify::system
                            ": give either properties_map or stiffness_N_per_m and "
                            "effective_mass_kg, not both");
         const auto path = f.resolve(map);
-        if (!std::filesystem::is_regular_file(path))
-          throw InputError(f.where(t, "properties_map") + " = '" + map + "': no such file ('" + path.string() +
-                           "', relative to the case file's folder); `rectify map-stiffness` writes one");
+        require_existing(f, t, "properties_map", path, false, "rectify map-stiffness");
         const auto at   = maps::ReedMap::read(path).at(thickness, mass_column, f.where(t, "properties_thickness_m"));
         p.stiffness_N_per_m = at.stiffness_N_per_m;
         p.effective_mass_kg = at.mass_kg;
@@ -137,10 +148,8 @@ namespace rectify::system
     // A valve without a map set reads the R(x) map: a missing one that the
     // case names is reported with the case file and the key, before any work
     // (the default is looked for only by the commands that read it).
-    if ((p.map_set[0].empty() || p.map_set[1].empty()) && f.has(t, "resistance_map") &&
-        !std::filesystem::is_regular_file(p.resistance_map))
-      throw InputError(f.where(t, "resistance_map") + " = '" + f.text(t, "resistance_map", "thesis-resistance.csv") +
-                       "': no such file ('" + p.resistance_map + "', relative to the case file's folder)");
+    if ((p.map_set[0].empty() || p.map_set[1].empty()) && f.has(t, "resistance_map"))
+      require_existing(f, t, "resistance_map", p.resistance_map, false);
     p.interpolation = f.text(t, "interpolation", p.interpolation, {"monotone-cubic", "log-linear", "linear", "log-log"});
     p.out_of_range  = f.text(t, "out_of_range", p.out_of_range, {"hold", "error"});
     p.ideal_open_resistance_Pa_s_per_m3 = f.real(t, "ideal_open_resistance_Pa_s_per_m3",
@@ -213,10 +222,7 @@ namespace rectify::system
     if (p.waveform != "sine")
       {
         p.waveform = f.resolve(p.waveform).string();
-        if (!std::filesystem::is_regular_file(p.waveform))
-          throw InputError(f.where(t, "waveform") + " = '" + f.text(t, "waveform", "") +
-                           "': neither \"sine\" nor a file (no such file '" + p.waveform +
-                           "', relative to the case file's folder)");
+        require_existing(f, t, "waveform", p.waveform, false); // "sine" or a CSV
       }
     p.coil_dynamics = f.text(t, "coil_dynamics", p.coil_dynamics, {"off", "on"});
     return p;
@@ -254,15 +260,10 @@ namespace rectify::system
         {
           if (p.valves.map_set[v].empty())
             continue;
-          if (!std::filesystem::is_directory(p.valves.map_set[v]))
-            {
-              const std::string key = f.has("valves", "map_set") ? "map_set" : v == 0 ? "outlet_map_set" : "inlet_map_set";
-              throw InputError((override_case ? std::string("--map-set") :
-                                                f.where("valves", key) + " = '" + f.text("valves", key, "") + "'") +
-                               ": no such map set (folder '" + p.valves.map_set[v] + "'" +
-                               (override_case ? "" : ", relative to the case file's folder") +
-                               "); `rectify design` writes one");
-            }
+          if (!override_case) // --map-set: MapSet::read names the folder
+            require_existing(f, "valves",
+                             f.has("valves", "map_set") ? "map_set" : v == 0 ? "outlet_map_set" : "inlet_map_set",
+                             p.valves.map_set[v], true, "rectify design");
           const auto set = maps::MapSet::read(p.valves.map_set[v]);
           set.check_matches(tables, f.name());
           if (!set.reed())

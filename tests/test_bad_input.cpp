@@ -52,6 +52,10 @@ TEST(BadInput, NumericOptionsAreCheckedForTheirType)
   expect_refused("simulate --current-pp nan" + o, {"--current-pp", "nan", "finite"}, out);
   expect_refused("simulate --current-bias NaN" + o, {"--current-bias"}, out);
   expect_refused("simulate --rtol inf" + o, {"--rtol", "inf", "finite"}, out);
+  // The currents' ranges (those of [drive]): a current in mA is refused.
+  expect_refused("simulate --current-bias 5000" + o, {"--current-bias", "5000", "[-1000, 1000]"}, out);
+  expect_refused("sweep --current-pp 20000 --n 2 --from 10 --to 20" + o, {"--current-pp", "20000", "[0, 2000]"}, out);
+  expect_refused("synth --current-pp -1" + o, {"--current-pp", "-1"}, out);
   expect_refused("synth --drive-noise -0.5" + o, {"--drive-noise", "-0.5"}, out);
   expect_refused("synth --cycles 100000 --samples-per-cycle 1000" + o, {"10^7 samples"}, out);
   expect_refused("sweep --max-startup-cycles 0 --n 2 --from 10 --to 20" + o, {"--max-startup-cycles"}, out);

@@ -367,7 +367,7 @@ namespace
   /// `args --out OUT` with the folder's disk failing after `n_writes`
   /// writes: exit 1 naming a file and the system's reason; what was written
   /// is whole; the same command afterwards (disk fine) finishes with the
-  /// uninterrupted run's files, reusing `min_resumed` finished items or more.
+  /// uninterrupted run's files.
   void expect_fault_is_survived(const std::string &args, const fs::path &whole, const fs::path &out,
                                 const DiskFault &fault, int n_writes)
   {
