@@ -70,6 +70,9 @@ namespace rectify::system
     V_l    = A_po * (1.0 - p.cylinder.high_side_fraction) * p.cylinder.wetted_length_m;
     C_seal = p.cylinder.seal_compliance_m3_per_Pa;
     R_leak = p.valves.leak_resistance_Pa_s_per_m3;
+    K_leak = p.valves.leak_area_m2 > 0 ?
+               p.fluid.density_kg_per_m3 / (2.0 * p.valves.leak_area_m2 * p.valves.leak_area_m2) :
+               0.0;
     const double Cd = p.valves.orifice_discharge_coefficient;
     const double P  = p.valves.orifice_perimeter_m > 0 ?
                         p.valves.orifice_perimeter_m :
@@ -183,7 +186,7 @@ namespace rectify::system
 
   bool Model::needs_difference_jacobian() const
   {
-    return c_.fluid.free_air_fraction > 0 || c_.C_seal > 0 || c_.R_leak > 0 || c_.orifice_factor > 0 ||
+    return c_.fluid.free_air_fraction > 0 || c_.C_seal > 0 || c_.R_leak > 0 || c_.K_leak > 0 || c_.orifice_factor > 0 ||
            c_.L_line > 0 || (drive_.is_voltage() && c_.coil_dynamics) || c_.F_coulomb > 0 ||
            c_.k_r2 > 0;
   }
@@ -222,6 +225,66 @@ namespace rectify::system
       const double root = std::sqrt(R * R + 4.0 * K * std::abs(dp));
       const double q    = 2.0 * dp / (R + root); // stable form of (-R + root) / (2K)
       return {q, 1.0 / root};                    // 1 / (R + 2 K |q|)
+    }
+
+    struct LeakyBranch
+    {
+      double q;  ///< flow through the branch
+      double dq; ///< dq / d(dp)
+      double u;  ///< drop across the valve and its leak
+    };
+
+    /// Flow through a turbulent leak orifice, K q|q| = u, and dq/du. A pure
+    /// square root has an infinite conductance at u = 0 (a stiff
+    /// integrator's Jacobian); real leak paths turn laminar at small flows:
+    /// q = u / sqrt(K sqrt(u^2 + u_t^2)), u_t = 1 kPa, which is the square
+    /// root to (u_t / u)^2 / 4 (2.5e-3 at 10 kPa) and has the conductance
+    /// 1 / sqrt(K u_t) at u = 0.
+    std::pair<double, double> turbulent_leak_flow(double K, double u)
+    {
+      constexpr double u_t = 1e3;
+      const double     s   = u * u + u_t * u_t;
+      const double     r   = std::sqrt(s);
+      const double     q   = u / std::sqrt(K * r);
+      return {q, (0.5 * u * u + u_t * u_t) / (s * std::sqrt(K * r))};
+    }
+
+    /// A valve (R q + K q|q| = u) and its leak paths side by side - a
+    /// laminar one (q = u / R_L; R_L = 0: none) and a turbulent orifice
+    /// (turbulent_leak_flow, K_L) - in series with a line of resistance
+    /// R_s: the flow for the drop dp across all. u + R_s q(u) = dp is
+    /// increasing in u: Newton, bracketed by 0 and dp.
+    LeakyBranch leaky_branch_flow(double R, double K, double R_L, double K_L, double R_s, double dp)
+    {
+      const double G_L  = R_L > 0 ? 1.0 / R_L : 0.0;
+      const auto   pair = [&](double u) {
+        const auto [qv, gv] = branch_flow(R, K, u);
+        const auto [qt, gt] = turbulent_leak_flow(K_L, u);
+        return std::pair{qv + G_L * u + qt, gv + G_L + gt};
+      };
+      double u = dp;
+      if (R_s > 0 && dp != 0.0)
+        {
+          double lo = std::min(0.0, dp), hi = std::max(0.0, dp);
+          u = dp / (1.0 + R_s * pair(0.0).second); // the linearised guess
+          for (int it = 0; it < 100; ++it)
+            {
+              const auto [q, g] = pair(u);
+              const double F    = u + R_s * q - dp;
+              if (F == 0.0)
+                break;
+              (F > 0 ? hi : lo) = u;
+              double next       = u - F / (1.0 + R_s * g);
+              if (!(next > lo && next < hi))
+                next = 0.5 * (lo + hi);
+              const bool done = std::abs(next - u) <= 1e-14 * std::abs(dp) || hi - lo <= 1e-14 * std::abs(dp);
+              u               = next;
+              if (done)
+                break;
+            }
+        }
+      const auto [q, g] = pair(u);
+      return {q, g / (1.0 + R_s * g), u};
     }
   } // namespace
 
@@ -262,7 +325,12 @@ namespace rectify::system
     Flows        f;
     f.R1 = valve_resistance(0, y).resistance;
     f.R2 = valve_resistance(1, y).resistance;
-    if (c_.R_leak > 0) // a leak path in parallel with each valve
+    // Leak paths in parallel with each valve. Laminar (R_leak only): one
+    // parallel resistance, the thesis model's algebra. With a turbulent leak
+    // (K_leak) the valve and its leaks share one drop u, solved for by
+    // leaky_branch_flow.
+    const bool quadratic_leak = c_.K_leak > 0;
+    if (c_.R_leak > 0 && !quadratic_leak)
       {
         f.R1 = f.R1 * c_.R_leak / (f.R1 + c_.R_leak);
         f.R2 = f.R2 * c_.R_leak / (f.R2 + c_.R_leak);
@@ -277,14 +345,36 @@ namespace rectify::system
     const double K1 = orifice(0), K2 = orifice(1);
     const double g5 = 1.0 / c_.R5, g6 = 1.0 / c_.R6;
 
+    double u_outlet = 0, u_inlet = 0; // drops across valve and leak (quadratic_leak)
     if (c_.L_line > 0) // valve into the node, line out of it
       {
-        f.q_outlet = branch_flow(f.R1, K1, p_ch - y[state::line_node_p]).first;
-        f.q_line   = y[state::line_flow];
+        const double dp = p_ch - y[state::line_node_p];
+        if (quadratic_leak)
+          {
+            f.q_outlet = leaky_branch_flow(f.R1, K1, c_.R_leak, c_.K_leak, 0.0, dp).q;
+            u_outlet   = dp;
+          }
+        else
+          f.q_outlet = branch_flow(f.R1, K1, dp).first;
+        f.q_line = y[state::line_flow];
+      }
+    else if (quadratic_leak)
+      {
+        const auto b = leaky_branch_flow(f.R1, K1, c_.R_leak, c_.K_leak, c_.R3, p_ch - p_h);
+        f.q_outlet = f.q_line = b.q;
+        u_outlet              = b.u;
       }
     else
       f.q_outlet = f.q_line = branch_flow(f.R1 + c_.R3, K1, p_ch - p_h).first;
-    if (K2 == 0.0)
+    // the inlet branch, junction -> chamber: flow and its derivative
+    const auto inlet_branch = [&](double dp) {
+      if (!quadratic_leak)
+        return branch_flow(f.R2 + c_.R4, K2, dp);
+      const auto b = leaky_branch_flow(f.R2, K2, c_.R_leak, c_.K_leak, c_.R4, dp);
+      u_inlet      = b.u;
+      return std::pair{b.q, b.dq};
+    };
+    if (K2 == 0.0 && !quadratic_leak)
       {
         const double g24 = 1.0 / (f.R2 + c_.R4);
         f.p_junction     = (g24 * p_ch + g5 * p_acc + g6 * p_l) / (g24 + g5 + g6);
@@ -298,7 +388,7 @@ namespace rectify::system
         double       lo = std::min({p_ch, p_acc, p_l}), hi = std::max({p_ch, p_acc, p_l});
         for (int it = 0; it < 60; ++it)
           {
-            const auto [q, dq] = branch_flow(f.R2 + c_.R4, K2, p_a - p_ch);
+            const auto [q, dq] = inlet_branch(p_a - p_ch);
             const double F     = g5 * (p_a - p_acc) + g6 * (p_a - p_l) + q;
             (F > 0 ? hi : lo)  = p_a;
             double next        = p_a - F / (g5 + g6 + dq);
@@ -312,13 +402,18 @@ namespace rectify::system
             p_a = next;
           }
         f.p_junction = p_a;
-        f.q_inlet    = branch_flow(f.R2 + c_.R4, K2, p_a - p_ch).first;
+        f.q_inlet    = inlet_branch(p_a - p_ch).first; // and u_inlet at p_a
       }
     f.q_accumulator = g5 * (f.p_junction - p_acc);
     f.q_low         = g6 * (f.p_junction - p_l);
     // valve pressure drops: R q + K q|q| (p_o = (R1 p_h + R3 p_ch)/(R1 + R3) when linear)
     f.p_outlet      = p_ch - f.R1 * f.q_outlet - K1 * f.q_outlet * std::abs(f.q_outlet);
     f.p_inlet       = p_ch + f.R2 * f.q_inlet + K2 * f.q_inlet * std::abs(f.q_inlet);
+    if (quadratic_leak) // the valve carries only part of q
+      {
+        f.p_outlet = p_ch - u_outlet;
+        f.p_inlet  = p_ch + u_inlet;
+      }
     f.outlet_force  = force_area(0, y).area * (p_ch - f.p_outlet);
     f.inlet_force   = force_area(1, y).area * (f.p_inlet - p_ch);
     return f;

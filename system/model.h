@@ -114,7 +114,8 @@ namespace rectify::system
     FluidParameters fluid;         ///< for the free air's pressure-dependent compliance
     double V_ch, V_h, V_l;         ///< oil volumes of the chamber, high and low sides
     double C_seal;                 ///< extra high-side compliance
-    double R_leak;                 ///< leak path across each valve
+    double R_leak;                 ///< leak path across each valve: its laminar resistance
+    double K_leak;                 ///< and its turbulent drop coefficient rho / (2 A_leak^2)
     double orifice_factor;         ///< rho / (2 Cd^2 P^2): orifice K = factor / x^2
     double L_line;                 ///< outlet-line inertance
     double C_node;                 ///< oil between the outlet valve and the line (with L_line)

@@ -156,6 +156,7 @@ namespace rectify::system
                                                  p.ideal_open_resistance_Pa_s_per_m3, positive);
     p.leak_resistance_Pa_s_per_m3 =
       f.real(t, "leak_resistance_Pa_s_per_m3", p.leak_resistance_Pa_s_per_m3, non_negative);
+    p.leak_area_m2 = f.real(t, "leak_area_m2", p.leak_area_m2, non_negative);
     p.orifice_discharge_coefficient = f.real(t, "orifice_discharge_coefficient",
                                              p.orifice_discharge_coefficient, Bounds::closed(0.0, 10.0));
     p.orifice_perimeter_m = f.real(t, "orifice_perimeter_m", p.orifice_perimeter_m, non_negative);
@@ -380,6 +381,7 @@ namespace rectify::system
       {"reed.second_mode_frequency_Hz", &reed.second_mode_frequency_Hz},
       {"valves.ideal_open_resistance_Pa_s_per_m3", &valves.ideal_open_resistance_Pa_s_per_m3},
       {"valves.leak_resistance_Pa_s_per_m3", &valves.leak_resistance_Pa_s_per_m3},
+      {"valves.leak_area_m2", &valves.leak_area_m2},
       {"valves.orifice_discharge_coefficient", &valves.orifice_discharge_coefficient},
       {"valves.orifice_perimeter_m", &valves.orifice_perimeter_m},
       {"lines.diameter_m", &lines.diameter_m},
@@ -471,6 +473,7 @@ namespace rectify::system
         {"out_of_range", valves.out_of_range},
         {"ideal_open_resistance_Pa_s_per_m3", valves.ideal_open_resistance_Pa_s_per_m3},
         {"leak_resistance_Pa_s_per_m3", valves.leak_resistance_Pa_s_per_m3},
+        {"leak_area_m2", valves.leak_area_m2},
         {"orifice_discharge_coefficient", valves.orifice_discharge_coefficient},
         {"orifice_perimeter_m", valves.orifice_perimeter_m}}},
       {"lines",

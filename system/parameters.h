@@ -86,6 +86,11 @@ namespace rectify::system
     /// Leakage past each valve (diagnosis effect `valve_leakage`): a path of
     /// this resistance in parallel with the valve, open or shut; 0 for none.
     double      leak_resistance_Pa_s_per_m3 = 0.0;
+    /// Turbulent leakage past each valve (diagnosis effect
+    /// `valve_leakage_turbulent`): an orifice of this effective area
+    /// (Cd x area) in parallel with the valve, drop rho q|q| / (2 A^2);
+    /// 0 for none. With leak_resistance as well: two paths side by side.
+    double      leak_area_m2 = 0.0;
     /// Nonlinear orifice flow (diagnosis effect `orifice_flow`): an extra
     /// drop rho q|q| / (2 Cd^2 A^2) through an open valve, A = perimeter x
     /// opening (the curtain area); Cd 0 for none.

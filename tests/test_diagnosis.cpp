@@ -269,9 +269,10 @@ TEST(Diagnosis, DominantFrequencyFindsARingingBetweenHarmonics)
 
 TEST(Diagnosis, EffectLibraryNamesBoundsAndKeys)
 {
-  const std::vector<std::string> expected{"entrained_air",  "entrained_air_constant_modulus", "outlet_compliance", "valve_leakage",
-                                          "orifice_flow",   "line_inertance",    "coil_dynamics",
-                                          "piston_friction", "reed_second_mode"};
+  const std::vector<std::string> expected{"entrained_air",   "entrained_air_constant_modulus", "outlet_compliance",
+                                          "valve_leakage",   "valve_leakage_turbulent",        "orifice_flow",
+                                          "line_inertance",  "coil_dynamics",                  "piston_friction",
+                                          "reed_second_mode"};
   ASSERT_EQ(effect_library().size(), expected.size());
   const auto base = system::SystemParameters::from_case(CaseFile::load(reference_case_path()));
   const auto map  = system::load_valve_maps(base);

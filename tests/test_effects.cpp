@@ -39,6 +39,7 @@ namespace
     p.fluid.free_air_fraction                    = 5e-3;
     p.cylinder.seal_compliance_m3_per_Pa         = 5e-12;
     p.valves.leak_resistance_Pa_s_per_m3         = 1e12;
+    p.valves.leak_area_m2                        = 3e-8;
     p.valves.orifice_discharge_coefficient       = 0.6;
     p.lines.outlet_inertance_Pa_s2_per_m3        = 3e7;
     p.load.coulomb_friction_N                    = 20;
@@ -126,6 +127,113 @@ TEST(Effects, LeakAndOrificeFlowsSatisfyTheirBranchLawsAndKirchhoff)
   EXPECT_NEAR((R2 + c.R4) * qi + K(25e-6) * qi * std::abs(qi), f.p_junction - 1.5e6, 1e-9 * 1.5e6);
   EXPECT_NEAR(f.q_inlet + f.q_accumulator + f.q_low, 0.0, 1e-12 * std::abs(f.q_inlet));
   EXPECT_LT(qi, 0.0); // the chamber is above the junction: flow back through the open inlet
+}
+
+TEST(Effects, ATurbulentLeakSharesTheValvesDropAndTheLineTakesTheRest)
+{
+  // A leak orifice of area A beside each valve: its flow q_L obeys
+  // rho q_L|q_L| / (2 A^2) = u above a 1 kPa laminar transition (q_L =
+  // u / sqrt(K sqrt(u^2 + u_t^2))), the valve's q_v its own law at the same
+  // drop u, and the line in series takes the rest: u + R3 (q_v + q_L) =
+  // p_ch - p_h. Tested open, shut, with an orifice loss through the open
+  // valve, and with a laminar leak path beside the turbulent one.
+  for (const bool with_orifice : {false, true})
+    for (const double R_lam : {0.0, 2e11})
+      for (const bool shut : {false, true})
+        {
+          auto p = reference();
+          p.valves.leak_area_m2                  = 1e-7;
+          p.valves.leak_resistance_Pa_s_per_m3   = R_lam;
+          p.valves.orifice_discharge_coefficient = with_orifice ? 0.5 : 0.0;
+          Model m = make(p, Scenario::no_flow, 100);
+          m.set_closed(0, shut);
+          m.set_closed(1, shut);
+          std::vector<double> y(m.n_states(), 0.0);
+          y[state::outlet_reed_x] = shut ? 0.0 : 40e-6;
+          y[state::inlet_reed_x]  = shut ? 0.0 : 25e-6;
+          y[state::chamber_p]     = 1.5e6;
+          y[state::high_p]        = 0.4e6;
+          y[state::accumulator_p] = 0.1e6;
+          y[state::low_p]         = -0.2e6;
+          const Flows  f   = m.flows(y);
+          const auto  &c   = m.constants();
+          const auto   map = reference_map(p);
+          const double rho = p.fluid.density_kg_per_m3, A = 1e-7;
+          const double K_L = rho / (2 * A * A);
+          EXPECT_DOUBLE_EQ(c.K_leak, K_L);
+          // the leaks' flow at a drop u
+          const auto q_leak = [&](double u) {
+            const double turbulent = u / std::sqrt(K_L * std::hypot(u, 1e3));
+            return turbulent + (R_lam > 0 ? u / R_lam : 0.0);
+          };
+          // above the transition, the square-root law
+          EXPECT_NEAR(q_leak(1e6) - (R_lam > 0 ? 1e6 / R_lam : 0.0), A * std::sqrt(2e6 / rho),
+                      1e-6 * A * std::sqrt(2e6 / rho));
+          const double P  = std::sqrt(4 * std::numbers::pi * p.reed.pressure_area_m2);
+          const auto   Kv = [&](double x) {
+            if (!with_orifice || shut)
+              return 0.0;
+            const double a = P * x;
+            return rho / (2 * 0.25 * a * a);
+          };
+          const auto R_valve = [&](double x) {
+            return shut ? map.closed_resistance() : map.evaluate(x).resistance;
+          };
+          const std::string what = std::string(shut ? "shut" : "open") + (with_orifice ? ", orifice" : "") +
+                                   (R_lam > 0 ? ", laminar part" : "");
+          // outlet: u = p_ch - p_o across valve and leak, the line R3 after them
+          const double u  = 1.5e6 - f.p_outlet;
+          const double qv = f.q_outlet - q_leak(u);
+          EXPECT_NEAR(R_valve(40e-6) * qv + Kv(40e-6) * qv * std::abs(qv), u, 1e-9 * 1.1e6) << what;
+          EXPECT_NEAR(u + c.R3 * f.q_outlet, 1.5e6 - 0.4e6, 1e-9 * 1.1e6) << what;
+          EXPECT_GT(q_leak(u), 0.0);
+          if (shut) // the leak carries all but the seat's u / 1e17
+            {
+              EXPECT_GT(q_leak(u), 0.9999 * f.q_outlet) << what;
+            }
+          // inlet, junction -> chamber, and the junction's Kirchhoff law
+          const double ui  = f.p_inlet - 1.5e6;
+          const double qvi = f.q_inlet - q_leak(ui);
+          EXPECT_NEAR(R_valve(25e-6) * qvi + Kv(25e-6) * qvi * std::abs(qvi), ui, 1e-9 * 1.5e6) << what;
+          EXPECT_NEAR(ui + c.R4 * f.q_inlet, f.p_junction - 1.5e6, 1e-9 * 1.5e6) << what;
+          EXPECT_NEAR(f.q_inlet + f.q_accumulator + f.q_low, 0.0, 1e-9 * std::abs(f.q_inlet)) << what;
+          // the force on the reed is the drop across it
+          EXPECT_DOUBLE_EQ(f.outlet_force, m.force_area(0, y).area * u) << what;
+        }
+}
+
+TEST(Effects, ATurbulentLeakRecoilsAsASquareRoot)
+{
+  // The high side discharging through a shut outlet valve's leak into a
+  // chamber held at 0: C dp/dt = -q(p). Laminar, p = p0 exp(-t / (R C));
+  // turbulent (above the 1 kPa transition), sqrt(p) = sqrt(p0) - t A
+  // sqrt(2/rho) / (2 C): the two forms recoil differently, which is how a
+  // record tells them apart. The model's flows integrated by hand.
+  auto p = reference();
+  p.valves.leak_area_m2 = 2e-8;
+  Model m = make(p, Scenario::no_flow, 100);
+  m.set_closed(0, true);
+  m.set_closed(1, true);
+  std::vector<double> y(m.n_states(), 0.0);
+  const double C = m.constants().C_h, rho = p.fluid.density_kg_per_m3, A = 2e-8;
+  double       ph = 2e6;
+  const double T  = 0.5 * std::sqrt(2e6) / (A * std::sqrt(2 / rho) / (2 * C)); // half way to empty
+  const int    n  = 20000;
+  for (int k = 0; k < n; ++k) // RK2 on C dp/dt = q_outlet (flow from the chamber at 0 into the high side)
+    {
+      const auto flow = [&](double pressure) {
+        y[state::high_p] = pressure;
+        return m.flows(y).q_outlet;
+      };
+      const double h  = T / n;
+      const double k1 = flow(ph) / C;
+      const double k2 = flow(ph + 0.5 * h * k1) / C;
+      ph += h * k2;
+    }
+  const double exact = std::pow(std::sqrt(2e6) - T * A * std::sqrt(2 / rho) / (2 * C), 2); // 0.5 MPa
+  // the line's resistance R3 in series (about 0.1 % of the drop) and the
+  // 1 kPa transition shift it by well under 0.5 %
+  EXPECT_NEAR(ph, exact, 0.005 * exact);
 }
 
 TEST(Effects, VoltageDrivenCoilFollowsItsFirstOrderStepResponse)
