@@ -429,7 +429,8 @@ TEST(Diagnosis, SynthThenDiagnoseNamesAHiddenLeakAndFindsNothingInCleanData)
   ASSERT_EQ(r.exit_code, 0) << r.output;
   r = rectify_cli("synth --noise 0.015 --seed 8 --frequency 150 --cycles 8 --out " + (dir / "clean").string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  const std::string candidates = " --effects valve_leakage outlet_compliance entrained_air ";
+  // synth's records come from the case's one-mode reed: diagnosed with it
+  const std::string candidates = " --effects valve_leakage outlet_compliance entrained_air --reed-second-mode case ";
   r = rectify_cli("diagnose --data " + (dir / "leak" / "data.csv").string() + candidates + "--out " +
                   (dir / "d-leak").string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
@@ -495,7 +496,7 @@ namespace
         ADD_FAILURE() << r.output;
         return {};
       }
-    return diagnose_summary(dir / "data" / "data.csv", "--effects " + effects, dir / "d");
+    return diagnose_summary(dir / "data" / "data.csv", "--effects " + effects + " --reed-second-mode case", dir / "d");
   }
 } // namespace
 
@@ -525,7 +526,8 @@ TEST(Diagnosis, InertialLineIsFoundFromItsRinging)
                        (dir / "data").string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   auto s = diagnose_summary(dir / "data" / "data.csv",
-                            "--case " + (dir / "known.toml").string() + " --effects line_inertance valve_leakage",
+                            "--case " + (dir / "known.toml").string() +
+                              " --effects line_inertance valve_leakage --reed-second-mode case",
                             dir / "d");
   ASSERT_EQ(s["effect"], "line_inertance") << s["decision"];
   EXPECT_NEAR(s["parameters"]["outlet_inertance_Pa_s2_per_m3"].get<double>(), 1.12e8, 0.01 * 1.12e8);

@@ -51,6 +51,9 @@ def main():
     ap.add_argument("--noise", type=float, default=None, help="white noise sd per column RMS (default: drawn 0.5-1.5 %%)")
     ap.add_argument("--no-sensor-effects", action="store_true", help="white noise only: no sensor dynamics, "
                     "coloured noise, drift, outliers or drive distortion")
+    ap.add_argument("--sensor-parts", default="lag,coloured,drift,outliers,distortion",
+                    help="which sensor effects to apply (comma list; the random draws are the same whatever "
+                         "is left out, so one seed gives the same record less those parts)")
     ap.add_argument("--nominal", action="store_true", help="baseline at the case's values (no random draws)")
     ap.add_argument("--out", required=True)
     a = ap.parse_args()
@@ -91,8 +94,14 @@ def main():
             truth["air_law"] = air_law
     start = a.start if a.start != "random" else str(rng.choice(["rest", "static", "mid"]))
     sensors = not a.no_sensor_effects
+    parts = set(a.sensor_parts.split(",")) if sensors else set()
+    unknown = parts - {"lag", "coloured", "drift", "outliers", "distortion"}
+    if unknown:
+        ap.error(f"--sensor-parts: unknown {sorted(unknown)}")
     noise = a.noise if a.noise is not None else rng.uniform(0.005, 0.015)
     distortion = (rng.uniform(0.005, 0.02) * pp / 2 * rng.choice([-1, 1])) if sensors else 0.0
+    if "distortion" not in parts:
+        distortion = 0.0
     voltage = a.effect == "coil_dynamics"
 
     w = 2 * math.pi * f
@@ -150,7 +159,7 @@ def main():
                 fc = log_uniform(rng, 1e4, 5e4)
             else:
                 fc = log_uniform(rng, 2e4, 1e5)
-            if fc < 0.45 * fs:
+            if fc < 0.45 * fs and "lag" in parts:
                 x = first_order_lowpass(x, fs, fc)
             sensor[c] = {"bandwidth_Hz": fc}
         recorded[c] = x
@@ -172,19 +181,21 @@ def main():
             for k in range(1, len(x)):
                 ar[k] = rho * ar[k - 1] + g[k]
             drift = rng.uniform(-1, 1) * 0.003 * rms * np.linspace(0, 1, len(x))
-            e = e + ar + drift
+            e = e + (ar if "coloured" in parts else 0.0) + (drift if "drift" in parts else 0.0)
         recorded[c] = x + e
     if sensors and rng.uniform() < 0.5:
         for _ in range(int(rng.integers(1, 4))):
             c = str(rng.choice(columns[:3]))
             k = int(rng.integers(len(t_rec_axis) // 10, len(t_rec_axis)))
             size = 10 ** rng.uniform(1, 3) * max(noise * float(np.std(recorded[c])), floor[c]) * rng.choice([-1, 1])
+            if "outliers" not in parts:
+                continue
             recorded[c][k] += size
             outliers.append({"column": c, "row": k + 1, "time_s": float(t_rec_axis[k] - t_rec), "size": float(size)})
 
     truth.update({"scenario": scenario, "frequency_Hz": f, "current_pp_A": pp, "current_bias_A": bias,
                   "drive": drive_name, "start": start, "runin_cycles": runin_cycles, "noise": noise,
-                  "sensor_effects": sensors, "distortion_A": distortion, "sensors": sensor,
+                  "sensor_effects": sensors, "sensor_parts": sorted(parts), "distortion_A": distortion, "sensors": sensor,
                   "outliers": outliers, "baseline": baseline, "cycles": a.cycles,
                   "simulation_s": sim_s, "second_mode_Hz": pump.f2})
     os.makedirs(a.out, exist_ok=True)
