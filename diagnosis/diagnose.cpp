@@ -97,7 +97,7 @@ namespace rectify::diagnosis
                             const DiagnoseOptions &options, unsigned run_threads,
                             const std::vector<Signals> *reference = nullptr)
       {
-        Evaluator ev{base, map, runs, effect, options, run_threads, reference};
+        Evaluator ev{base, map, runs, effect, options, run_threads, reference, 0.0, {}, {}, {}};
         for (std::size_t j = 0; j < base.uncertain.size(); ++j)
           {
             const auto &q = base.uncertain[j];
