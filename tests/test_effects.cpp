@@ -46,6 +46,23 @@ namespace
     p.reed.second_mode_frequency_Hz              = 4000;
     return p;
   }
+
+  /// A state of the valve network for testing its algebra: chamber 1.5 MPa,
+  /// high side 0.4, accumulator 0.1, low side -0.2; the outlet reed open
+  /// 40 um and the inlet 25 um, or both shut.
+  std::vector<double> network_state(Model &m, bool shut)
+  {
+    m.set_closed(0, shut);
+    m.set_closed(1, shut);
+    std::vector<double> y(m.n_states(), 0.0);
+    y[state::outlet_reed_x] = shut ? 0.0 : 40e-6;
+    y[state::inlet_reed_x]  = shut ? 0.0 : 25e-6;
+    y[state::chamber_p]     = 1.5e6;
+    y[state::high_p]        = 0.4e6;
+    y[state::accumulator_p] = 0.1e6;
+    y[state::low_p]         = -0.2e6;
+    return y;
+  }
 } // namespace
 
 TEST(Effects, OffMeansTheThesisModelWithItsAnalyticJacobian)
@@ -97,15 +114,7 @@ TEST(Effects, LeakAndOrificeFlowsSatisfyTheirBranchLawsAndKirchhoff)
   p.valves.leak_resistance_Pa_s_per_m3   = 3e11;
   p.valves.orifice_discharge_coefficient = 0.5;
   Model m = make(p, Scenario::no_flow, 100);
-  m.set_closed(0, false);
-  m.set_closed(1, false);
-  std::vector<double> y(m.n_states(), 0.0);
-  y[state::outlet_reed_x] = 40e-6;
-  y[state::inlet_reed_x]  = 25e-6;
-  y[state::chamber_p]     = 1.5e6;
-  y[state::high_p]        = 0.4e6;
-  y[state::accumulator_p] = 0.1e6;
-  y[state::low_p]         = -0.2e6;
+  const auto   y   = network_state(m, false);
   const Flows  f   = m.flows(y);
   const auto  &c   = m.constants();
   const auto   map = reference_map(p);
@@ -146,15 +155,7 @@ TEST(Effects, ATurbulentLeakSharesTheValvesDropAndTheLineTakesTheRest)
           p.valves.leak_resistance_Pa_s_per_m3   = R_lam;
           p.valves.orifice_discharge_coefficient = with_orifice ? 0.5 : 0.0;
           Model m = make(p, Scenario::no_flow, 100);
-          m.set_closed(0, shut);
-          m.set_closed(1, shut);
-          std::vector<double> y(m.n_states(), 0.0);
-          y[state::outlet_reed_x] = shut ? 0.0 : 40e-6;
-          y[state::inlet_reed_x]  = shut ? 0.0 : 25e-6;
-          y[state::chamber_p]     = 1.5e6;
-          y[state::high_p]        = 0.4e6;
-          y[state::accumulator_p] = 0.1e6;
-          y[state::low_p]         = -0.2e6;
+          const auto   y   = network_state(m, shut);
           const Flows  f   = m.flows(y);
           const auto  &c   = m.constants();
           const auto   map = reference_map(p);
