@@ -186,9 +186,9 @@ namespace rectify::system
 
   bool Model::needs_difference_jacobian() const
   {
-    return c_.fluid.free_air_fraction > 0 || c_.C_seal > 0 || c_.R_leak > 0 || c_.K_leak > 0 || c_.orifice_factor > 0 ||
-           c_.L_line > 0 || (drive_.is_voltage() && c_.coil_dynamics) || c_.F_coulomb > 0 ||
-           c_.k_r2 > 0;
+    return c_.fluid.free_air_fraction > 0 || c_.C_seal > 0 || c_.R_leak > 0 || c_.K_leak > 0 ||
+           c_.orifice_factor > 0 || c_.L_line > 0 || (drive_.is_voltage() && c_.coil_dynamics) ||
+           c_.F_coulomb > 0 || c_.k_r2 > 0;
   }
 
   double Model::opening(std::size_t v, std::span<const double> y) const
@@ -345,27 +345,23 @@ namespace rectify::system
     const double K1 = orifice(0), K2 = orifice(1);
     const double g5 = 1.0 / c_.R5, g6 = 1.0 / c_.R6;
 
-    double u_outlet = 0, u_inlet = 0; // drops across valve and leak (quadratic_leak)
+    // Each valve's branch, its line R_s in series: the flow for a drop dp
+    // (and, with a turbulent leak, the drop u across valve and leak).
+    double     u_outlet = 0, u_inlet = 0;
+    const auto outlet_branch = [&](double R_s, double dp) {
+      if (!quadratic_leak)
+        return branch_flow(f.R1 + R_s, K1, dp).first;
+      const auto b = leaky_branch_flow(f.R1, K1, c_.R_leak, c_.K_leak, R_s, dp);
+      u_outlet     = b.u;
+      return b.q;
+    };
     if (c_.L_line > 0) // valve into the node, line out of it
       {
-        const double dp = p_ch - y[state::line_node_p];
-        if (quadratic_leak)
-          {
-            f.q_outlet = leaky_branch_flow(f.R1, K1, c_.R_leak, c_.K_leak, 0.0, dp).q;
-            u_outlet   = dp;
-          }
-        else
-          f.q_outlet = branch_flow(f.R1, K1, dp).first;
-        f.q_line = y[state::line_flow];
-      }
-    else if (quadratic_leak)
-      {
-        const auto b = leaky_branch_flow(f.R1, K1, c_.R_leak, c_.K_leak, c_.R3, p_ch - p_h);
-        f.q_outlet = f.q_line = b.q;
-        u_outlet              = b.u;
+        f.q_outlet = outlet_branch(0.0, p_ch - y[state::line_node_p]);
+        f.q_line   = y[state::line_flow];
       }
     else
-      f.q_outlet = f.q_line = branch_flow(f.R1 + c_.R3, K1, p_ch - p_h).first;
+      f.q_outlet = f.q_line = outlet_branch(c_.R3, p_ch - p_h);
     // the inlet branch, junction -> chamber: flow and its derivative
     const auto inlet_branch = [&](double dp) {
       if (!quadratic_leak)
@@ -407,13 +403,9 @@ namespace rectify::system
     f.q_accumulator = g5 * (f.p_junction - p_acc);
     f.q_low         = g6 * (f.p_junction - p_l);
     // valve pressure drops: R q + K q|q| (p_o = (R1 p_h + R3 p_ch)/(R1 + R3) when linear)
-    f.p_outlet      = p_ch - f.R1 * f.q_outlet - K1 * f.q_outlet * std::abs(f.q_outlet);
-    f.p_inlet       = p_ch + f.R2 * f.q_inlet + K2 * f.q_inlet * std::abs(f.q_inlet);
-    if (quadratic_leak) // the valve carries only part of q
-      {
-        f.p_outlet = p_ch - u_outlet;
-        f.p_inlet  = p_ch + u_inlet;
-      }
+    // (with a turbulent leak the valve carries only part of q: its drop is u)
+    f.p_outlet = quadratic_leak ? p_ch - u_outlet : p_ch - f.R1 * f.q_outlet - K1 * f.q_outlet * std::abs(f.q_outlet);
+    f.p_inlet  = quadratic_leak ? p_ch + u_inlet : p_ch + f.R2 * f.q_inlet + K2 * f.q_inlet * std::abs(f.q_inlet);
     f.outlet_force  = force_area(0, y).area * (p_ch - f.p_outlet);
     f.inlet_force   = force_area(1, y).area * (f.p_inlet - p_ch);
     return f;

@@ -52,8 +52,9 @@ def main():
     ap.add_argument("--no-sensor-effects", action="store_true", help="white noise only: no sensor dynamics, "
                     "coloured noise, drift, outliers or drive distortion")
     ap.add_argument("--sensor-parts", default="lag,coloured,drift,outliers,distortion",
-                    help="which sensor effects to apply (comma list; the random draws are the same whatever "
-                         "is left out, so one seed gives the same record less those parts)")
+                    help="which sensor effects to apply (comma list, may be empty; the random draws are the same "
+                         "whatever is left out, so one seed gives the same record less those parts; "
+                         "--no-sensor-effects overrides it)")
     ap.add_argument("--nominal", action="store_true", help="baseline at the case's values (no random draws)")
     ap.add_argument("--out", required=True)
     a = ap.parse_args()
@@ -94,7 +95,7 @@ def main():
             truth["air_law"] = air_law
     start = a.start if a.start != "random" else str(rng.choice(["rest", "static", "mid"]))
     sensors = not a.no_sensor_effects
-    parts = set(a.sensor_parts.split(",")) if sensors else set()
+    parts = {x for x in a.sensor_parts.split(",") if x} if sensors else set()
     unknown = parts - {"lag", "coloured", "drift", "outliers", "distortion"}
     if unknown:
         ap.error(f"--sensor-parts: unknown {sorted(unknown)}")
