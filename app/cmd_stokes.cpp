@@ -88,7 +88,10 @@ namespace rectify::app
       const auto valve = mesher::mesh_valve(mp, opening, root);
       // The folder appears with the results: the solver makes it for its VTU
       // output after solving, or here (no VTU); an interrupted solve leaves none.
-      const auto r = stokes::solve_stokes(valve.mesh, fp, o.no_vtu ? std::filesystem::path{} : out, true);
+      const auto motion  = stokes::reed_motion(mp);
+      const bool loading = fp.settings.reed_loading == "solve";
+      const auto r = stokes::solve_stokes(valve.mesh, fp, o.no_vtu ? std::filesystem::path{} : out, true,
+                                          loading ? &motion : nullptr);
       if (!root)
         return;
       lock.acquire(out);
@@ -110,7 +113,14 @@ namespace rectify::app
       const double shift = r.R_pressure_Pa_s_per_m3 / r.stokes_R_Pa_s_per_m3 - 1;
       if (o.navier_stokes)
         summary["inertia_shift_rel"] = shift;
+      if (loading)
+        summary["reed_loading"] = stokes::to_json(r.loading);
       write_json(out / "summary.json", summary);
+      if (loading)
+        std::printf("reed's fluid loading: squeeze-film damping %.6g N s/m (port shut), %.6g N s/m (fixed dp); "
+                    "flow drawn per unit tip velocity %.6g m^2; added mass %.6g kg; asymmetry %.1e; %.1f s\n",
+                    r.loading.K_vv_N_s_per_m, r.loading.damping_fixed_dp_N_s_per_m, r.loading.A_modal_m2,
+                    r.loading.added_mass_kg, r.loading.asymmetry, r.loading.solve_time_s);
       if (o.navier_stokes)
         std::printf("inertia (steady Navier-Stokes, Re %.3g in the port, %.3g at the gap's exit): R = %.6e "
                     "against Stokes %.6e Pa s/m^3 (%+.3f %%), %u Newton steps\n",

@@ -30,6 +30,7 @@ namespace rectify::app
       double      rtol           = std::nan("");
       bool        fd_jacobian    = false;
       std::string map_set;
+      std::string fluid_loading;
 
       void add_to(CLI::App &cmd)
       {
@@ -49,12 +50,28 @@ namespace rectify::app
         cmd.add_option("--map-set", map_set,
                        "both valves from this map set (`rectify design`): R(x), A_eff(x), k_r, m_r; "
                        "wins over the case's [valves] and [reed] values");
+        cmd.add_option("--fluid-loading", fluid_loading,
+                       "the reed's fluid loading: thesis (constant damping ratio, eq. 3.21's mass) or map (squeeze "
+                       "film, added mass and displaced flow from the map sets; docs/fluid-loading.md); default: "
+                       "case [reed] fluid_loading")
+          ->check(CLI::IsMember({"thesis", "map"}));
       }
 
       /// Parameters with the command-line overrides applied.
       system::SystemParameters parameters(const CaseFile &file) const
       {
         auto p = system::SystemParameters::from_case(file);
+        if (!fluid_loading.empty())
+          {
+            p.reed.fluid_loading = fluid_loading;
+            // The reed's mass depends on it: the map sets are applied again.
+            if (map_set.empty() && !p.valves.map_set[0].empty())
+              {
+                if (p.valves.map_set[0] != p.valves.map_set[1])
+                  throw InputError("--fluid-loading with the case's two map sets: give --map-set");
+                system::use_map_set(p, file, p.valves.map_set[0]);
+              }
+          }
         if (!map_set.empty())
           system::use_map_set(p, file, map_set);
         if (!std::isnan(current_pp_A))
@@ -100,7 +117,9 @@ namespace rectify::app
     {
       char buf[96];
       std::snprintf(buf, sizeof(buf), "k_r %.6g N/m, m_r %.6g kg", p.reed.stiffness_N_per_m, p.reed.effective_mass_kg);
-      return std::string(buf) + " (" + p.reed.source + ")";
+      return std::string(buf) + " (" + p.reed.source + "); fluid loading: " +
+             (p.reed.fluid_loading == "map" ? "squeeze film, added mass, displaced flow from the map sets" :
+                                              "the thesis's (damping ratio, eq. 3.21's mass)");
     }
 
     system::Drive make_drive(const system::SystemParameters &p, double frequency)

@@ -1,5 +1,6 @@
 #include "design/design.h"
 
+#include <algorithm>
 #include <chrono>
 #include <dlfcn.h>
 #include <cmath>
@@ -229,10 +230,27 @@ namespace rectify::design
     const double seated = M_PI * 0.25 * sp.geometry.port_diameter_m * sp.geometry.port_diameter_m;
     nlohmann::json r_meta = {{"source", "rectify design"}, {"closed", "1e17 Pa s/m^3 at x = 0 (the thesis's)"},
                              {"below_first_open_node", "the first interval's power law, capped at the closed value"}};
-    const maps::MapSet set(maps::ResistanceMap(x, R, (out / "resistance.csv").string(), r_meta,
-                                               maps::Interpolation::log_log),
-                           maps::AreaMap(xa, A, (out / "area.csv").string(), {{"source", "rectify design"}}),
-                           seated, reed, manifest);
+    maps::MapSet set(maps::ResistanceMap(x, R, (out / "resistance.csv").string(), r_meta,
+                                         maps::Interpolation::log_log),
+                     maps::AreaMap(xa, A, (out / "area.csv").string(), {{"source", "rectify design"}}), seated, reed,
+                     manifest);
+    const bool with_loading = !pts.empty() && std::all_of(pts.begin(), pts.end(), [](const auto &p) {
+      return p.has_loading();
+    });
+    double max_asymmetry = 0;
+    if (with_loading)
+      {
+        std::vector<maps::LoadingMap::Row> rows;
+        for (const auto &p : pts)
+          {
+            rows.push_back({p.opening_m, p.damping_fixed_dp_N_s_per_m, p.A_modal_m2, p.added_mass_kg,
+                            p.damping_N_s_per_m, p.loading_asymmetry});
+            max_asymmetry = std::max(max_asymmetry, p.loading_asymmetry);
+          }
+        set.set_loading(maps::LoadingMap(std::move(rows), (out / "loading.csv").string(),
+                                         {{"source", "rectify design: two Stokes solves per opening on one matrix, "
+                                                     "and the potential flow"}}));
+      }
 
     // Tables and plots beside the map set.
     CsvTable table(stokes::OpeningPoint::columns());
@@ -249,6 +267,33 @@ namespace rectify::design
         curve.add_row(row);
       }
     curve.write(out / "map-curve.csv");
+    if (with_loading)
+      {
+        CsvTable lc({"opening_m", "damping_fixed_dp_N_s_per_m", "A_modal_m2", "added_mass_kg", "eq320_added_mass_kg",
+                     "eq321_mass_kg", "modal_mass_kg"});
+        for (int k = 0; k <= 240; ++k)
+          {
+            const double xi = ss.from_m * std::pow(ss.to_m / ss.from_m, k / 240.0);
+            const auto   v  = set.loading()->evaluate(xi);
+            const double row[7] = {xi, v.damping, v.A_modal, v.added_mass, bounds.added_mass_kg, fluid.eq321_mass_kg,
+                                   reed.modal_mass_kg};
+            lc.add_row(row);
+          }
+        lc.write(out / "loading-curve.csv");
+        render_plot(out / "loading",
+                    {{"Squeeze-film damping of the reed (at a fixed pressure drop, referred to the tip)",
+                      "tip opening [um]", "c [N s/m]", true, true,
+                      {{out / "points.csv", "opening_m", "damping_fixed_dp_N_s_per_m", "Stokes, fixed dp", "points", 1e6, 1},
+                       {out / "points.csv", "opening_m", "damping_N_s_per_m", "Stokes, port shut (Q = 0)", "points", 1e6, 1},
+                       {out / "loading-curve.csv", "opening_m", "damping_fixed_dp_N_s_per_m", "map", "lines", 1e6, 1}}},
+                     {"Added mass on the reed (potential flow, referred to the tip)", "tip opening [um]", "mass [mg]", true,
+                      true,
+                      {{out / "points.csv", "opening_m", "added_mass_kg", "potential flow, solved", "points", 1e6, 1e6},
+                       {out / "loading-curve.csv", "opening_m", "added_mass_kg", "map", "lines", 1e6, 1e6},
+                       {out / "loading-curve.csv", "opening_m", "eq320_added_mass_kg", "eq. 3.20 (unconfined)", "lines", 1e6, 1e6},
+                       {out / "loading-curve.csv", "opening_m", "eq321_mass_kg", "eq. 3.21: 2.75 (m_plate + m_added)", "lines", 1e6, 1e6},
+                       {out / "loading-curve.csv", "opening_m", "modal_mass_kg", "first mode's mass in vacuum", "lines", 1e6, 1e6}}}});
+      }
     render_plot(out / "resistance",
                 {{"Valve resistance R(x): Stokes on the FE reed shape", "tip opening [um]", "R [Pa s/m^3]", true, true,
                   {{out / "points.csv", "opening_m", "R_Pa_s_per_m3", "Stokes (mean pressures), solved", "points", 1e6, 1},
@@ -308,6 +353,25 @@ namespace rectify::design
        << " (at the map's flow rate).\n\n"
           "Files: manifest.json (provenance), resistance.csv, area.csv (the map set), points.csv (every "
           "solved opening), resistance.png, reed/ (shape.csv, shape.png, reed.vtu).\n";
+    if (with_loading)
+      {
+        md << "\n## The reed's fluid loading (docs/fluid-loading.md)\n\n"
+              "Per opening, a second solve on the same matrix (the reed moving at unit tip velocity with its FE "
+              "shape, the port shut) and the potential flow. Referred to the tip. The 2x2 map's largest "
+              "asymmetry: "
+           << fmt("%.1e", max_asymmetry)
+           << " (reciprocity). Eq. 3.20's added mass " << fmt("%.4g", bounds.added_mass_kg)
+           << " kg; eq. 3.21's mass, 2.75 (m_plate + m_added), " << fmt("%.4g", fluid.eq321_mass_kg)
+           << " kg; first mode's mass in vacuum " << fmt("%.4g", reed.modal_mass_kg)
+           << " kg.\n\n| opening [um] | c, port shut [N s/m] | c, fixed dp [N s/m] | A_modal [mm^2] | added mass "
+              "[mg] | asymmetry | loading [s] |\n|---:|---:|---:|---:|---:|---:|---:|\n";
+        for (const auto &p : pts)
+          md << "| " << fmt("%.4g", p.opening_m * 1e6) << " | " << fmt("%.4g", p.damping_N_s_per_m) << " | "
+             << fmt("%.4g", p.damping_fixed_dp_N_s_per_m) << " | " << fmt("%.3f", p.A_modal_m2 * 1e6) << " | "
+             << fmt("%.4g", p.added_mass_kg * 1e6) << " | " << fmt("%.0e", p.loading_asymmetry) << " | "
+             << fmt("%.1f", p.loading_time_s) << " |\n";
+        md << "\nFiles: loading.csv (in the map set), loading-curve.csv, loading.png.\n";
+      }
     set.write(out);
     write_file_atomic(out / "report.md", md.str());
     result.manifest = set.manifest();

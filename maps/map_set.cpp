@@ -13,6 +13,7 @@ namespace rectify::maps
   {
     const char *const resistance_file = "resistance.csv";
     const char *const area_file       = "area.csv";
+    const char *const loading_file    = "loading.csv";
 
     /// The field `key` of `j` (an object), or an InputError naming `where` and the key.
     const nlohmann::json &field(const nlohmann::json &j, const std::string &key, const std::string &where)
@@ -168,7 +169,11 @@ namespace rectify::maps
     std::optional<ReedProperties> reed;
     if (manifest.contains("reed") && !manifest.at("reed").is_null())
       reed = ReedProperties::from_json(manifest.at("reed"), where + " reed");
+    std::optional<LoadingMap> loading;
+    if (manifest.contains("loading") && !manifest.at("loading").is_null())
+      loading = LoadingMap::read(table(loading_file));
     MapSet set(std::move(resistance), std::move(area), seated, std::move(reed), std::move(manifest));
+    set.loading_ = std::move(loading);
     set.name_ = folder;
     return set;
   }
@@ -180,6 +185,10 @@ namespace rectify::maps
     std::filesystem::remove(dir / "manifest.json");
     resistance_.write(dir / resistance_file);
     area_.write(dir / area_file);
+    if (loading_)
+      loading_->write(dir / loading_file);
+    else
+      std::filesystem::remove(dir / loading_file);
     nlohmann::json m = manifest_;
     m["format"]         = "rectify map set";
     m["format_version"] = map_set_format_version;
@@ -195,6 +204,15 @@ namespace rectify::maps
     m["reed"]           = reed_ ? reed_->to_json() : nlohmann::json(nullptr);
     m["files"]          = {{resistance_file, {{"hash", file_hash(dir / resistance_file)}}},
                            {area_file, {{"hash", file_hash(dir / area_file)}}}};
+    m["loading"]        = nlohmann::json(nullptr);
+    if (loading_)
+      {
+        m["loading"] = {{"file", loading_file},
+                        {"n_nodes", loading_->rows().size()},
+                        {"referred_to", "the tip: the reed's shape normalised to a unit tip deflection"},
+                        {"outside_nodes", "held"}};
+        m["files"][loading_file] = {{"hash", file_hash(dir / loading_file)}};
+      }
     write_json(dir / "manifest.json", m);
   }
 

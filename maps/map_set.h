@@ -9,6 +9,8 @@
 //                   reed's stiffness and masses; a hash of each table file
 //   resistance.csv  R(x) (maps/resistance_map.h), with its interpolation
 //   area.csv        A_eff(x) (maps/area_map.h)
+//   loading.csv     the reed's fluid loading: squeeze-film damping, the flow
+//                   it displaces, added mass (maps/loading_map.h); optional
 //
 // beside which `rectify design` writes the solved points, plots, the reed's
 // shape and modes and a report. The manifest is written last: a folder
@@ -25,6 +27,7 @@
 #include "common/reed_material.h"
 #include "common/valve_geometry.h"
 #include "maps/area_map.h"
+#include "maps/loading_map.h"
 #include "maps/resistance_map.h"
 
 namespace rectify::maps
@@ -80,6 +83,8 @@ namespace rectify::maps
     const AreaMap                       &area() const { return area_; }
     double                               seated_area_m2() const { return seated_area_m2_; }
     const std::optional<ReedProperties> &reed() const { return reed_; }
+    const std::optional<LoadingMap>     &loading() const { return loading_; }
+    void set_loading(LoadingMap loading) { loading_ = std::move(loading); }
     const nlohmann::json                &manifest() const { return manifest_; }
     const std::string                   &name() const { return name_; }
 
@@ -88,6 +93,7 @@ namespace rectify::maps
     AreaMap                       area_;
     double                        seated_area_m2_;
     std::optional<ReedProperties> reed_;
+    std::optional<LoadingMap>     loading_;
     nlohmann::json                manifest_;
     std::string                   name_; ///< the folder, for messages
   };

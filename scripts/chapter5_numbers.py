@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """The chapter-5 numbers of docs/chapter5-comparison.md, from the outputs of
-scripts/reference.sh: for the model on the thesis's R(x) (RUN/) and on the
-valve's own FE maps (RUN/fe-maps/). Prints a Markdown table.
+scripts/reference.sh: for the model on the thesis's R(x) (RUN/), on the
+valve's own FE maps (RUN/fe-maps/) and on those maps with the reed's fluid
+loading (RUN/fe-loading/, docs/fluid-loading.md). Prints a Markdown table.
 
 Usage: python3 scripts/chapter5_numbers.py runs/reference
 """
@@ -76,12 +77,28 @@ def phase(run):
 def main():
     run = Path(sys.argv[1])
     variants = [('thesis R(x), A_r', run), ('FE maps', run / 'fe-maps')]
-    res = {name: dict(traces=traces(d), stored=stored(d), velocity=velocity(d), phase=phase(d))
-           for name, d in variants}
+    if (run / 'fe-loading').is_dir():
+        variants.append(('FE maps + fluid loading', run / 'fe-loading'))
+    def results(d):
+        out = {}
+        for key, fn in (('traces', traces), ('stored', stored), ('velocity', velocity), ('phase', phase)):
+            try:
+                out[key] = fn(d)
+            except (OSError, KeyError, ValueError):
+                out[key] = None  # a run that did not finish (reported by reference.sh)
+        return out
+
+    res = {name: results(d) for name, d in variants}
     names = [n for n, _ in variants]
     print('| result | ' + ' | '.join(names) + ' |')
     print('|---|' + '---:|' * len(names))
-    row = lambda label, fn: print(f'| {label} | ' + ' | '.join(fn(res[n]) for n in names) + ' |')
+    def cell(fn, r):
+        try:
+            return fn(r)
+        except TypeError:
+            return 'n/a'
+
+    row = lambda label, fn: print(f'| {label} | ' + ' | '.join(cell(fn, res[n]) for n in names) + ' |')
     row('no-flow peak p_o at 5/10/25/50 Hz, 20 A p-p [psi]',
         lambda r: ' / '.join(f'{r["traces"][f]:.0f}' for f in (5, 10, 25, 50)))
     row('stored pressure up to 20 Hz, 4 A p-p [psi]', lambda r: f'{r["stored"][0]:.0f}')

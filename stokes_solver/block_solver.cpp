@@ -82,7 +82,8 @@ namespace rectify::stokes
                      : "FGMRES + field-split Schur (BoomerAMG on velocity, pressure mass on Schur)";
   }
 
-  unsigned solve_block_system(Mat system, Mat preconditioner, Mat gap_laplace, Vec rhs, Vec solution,
+  unsigned solve_block_system(Mat system, Mat preconditioner, Mat gap_laplace,
+                              const std::vector<BlockRhs> &systems,
                               const std::vector<PetscInt> &velocity, const std::vector<PetscInt> &pressure,
                               const BlockSolverSettings &settings)
   {
@@ -169,16 +170,24 @@ namespace rectify::stokes
     double initial_norm = 1;
     if (settings.verbose && rank == 0)
       check_petsc(KSPMonitorSet(o.ksp, report_progress, &initial_norm, nullptr), "KSPMonitorSet");
-    check_petsc(KSPSolve(o.ksp, rhs, solution), "KSPSolve");
-    KSPConvergedReason reason;
-    PetscInt           its;
-    check_petsc(KSPGetConvergedReason(o.ksp, &reason), "KSPGetConvergedReason");
-    check_petsc(KSPGetIterationNumber(o.ksp, &its), "KSPGetIterationNumber");
-    if (reason < 0)
-      throw std::runtime_error("the Stokes solver did not converge: " + block_solver_name(gap_laplace != nullptr) +
-                               ", " + std::to_string(its) + " iterations, PETSc reason " + std::to_string(reason) +
-                               " ([flow] tolerance = " + format_number(settings.tolerance) +
-                               ", max_iterations = " + std::to_string(settings.max_iterations) + ")");
-    return static_cast<unsigned>(its);
+    unsigned total = 0;
+    for (const auto &[rhs, solution, tolerance] : systems)
+      {
+        check_petsc(KSPSetTolerances(o.ksp, tolerance, 1e-300, 1e10, static_cast<PetscInt>(settings.max_iterations)),
+                    "KSPSetTolerances");
+        check_petsc(KSPSolve(o.ksp, rhs, solution), "KSPSolve");
+        KSPConvergedReason reason;
+        PetscInt           its;
+        check_petsc(KSPGetConvergedReason(o.ksp, &reason), "KSPGetConvergedReason");
+        check_petsc(KSPGetIterationNumber(o.ksp, &its), "KSPGetIterationNumber");
+        if (reason < 0)
+          throw std::runtime_error("the Stokes solver did not converge: " + block_solver_name(gap_laplace != nullptr) +
+                                   ", " + std::to_string(its) + " iterations, PETSc reason " +
+                                   std::to_string(reason) + " ([flow] tolerance = " +
+                                   format_number(tolerance) +
+                                   ", max_iterations = " + std::to_string(settings.max_iterations) + ")");
+        total += static_cast<unsigned>(its);
+      }
+    return total;
   }
 } // namespace rectify::stokes

@@ -11,6 +11,7 @@
 #include <petscvec.h>
 
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace rectify::stokes
@@ -22,14 +23,23 @@ namespace rectify::stokes
     bool   verbose        = false; ///< progress every 20 iterations on stderr (rank 0)
   };
 
-  /// Solves system x = rhs. `preconditioner` is the system matrix with the
+  /// One right-hand side, its solution and the relative residual it needs.
+  struct BlockRhs
+  {
+    Vec    rhs, solution;
+    double tolerance;
+  };
+
+  /// Solves system x = rhs for each of `systems`, with one preconditioner
+  /// set-up (settings.tolerance is not used). `preconditioner` is the system matrix with the
   /// (negative) scaled pressure mass matrix in the zero pressure block;
   /// `gap_laplace`, if not null, the (positive) scaled thin-gap Laplacian in
   /// the pressure block of a matrix of the system's size. `velocity` and
   /// `pressure` are this process's DoF indices of each field. Returns the
-  /// number of iterations; throws std::runtime_error naming the solver, the
+  /// number of iterations, summed; throws std::runtime_error naming the solver, the
   /// iterations and PETSc's reason if it does not converge.
-  unsigned solve_block_system(Mat system, Mat preconditioner, Mat gap_laplace, Vec rhs, Vec solution,
+  unsigned solve_block_system(Mat system, Mat preconditioner, Mat gap_laplace,
+                              const std::vector<BlockRhs> &systems,
                               const std::vector<PetscInt> &velocity, const std::vector<PetscInt> &pressure,
                               const BlockSolverSettings &settings);
 

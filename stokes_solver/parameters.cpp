@@ -15,6 +15,8 @@ namespace rectify::stokes
     s.schur              = f.text(t, "schur", s.schur, {"gap", "mass"});
     s.tolerance          = f.real(t, "tolerance", s.tolerance, Bounds::open(0.0, 1e-2));
     s.max_iterations     = f.integer(t, "max_iterations", s.max_iterations, 1, 1000000);
+    s.reed_loading       = f.text(t, "reed_loading", s.reed_loading, {"solve", "skip"});
+    s.loading_tolerance  = f.real(t, "loading_tolerance", s.loading_tolerance, Bounds::open(0.0, 1e-2));
     return s;
   }
 
@@ -31,7 +33,9 @@ namespace rectify::stokes
             {"direct_max_dofs", direct_max_dofs},
             {"schur", schur},
             {"tolerance", tolerance},
-            {"max_iterations", max_iterations}};
+            {"max_iterations", max_iterations},
+            {"reed_loading", reed_loading},
+            {"loading_tolerance", loading_tolerance}};
   }
   // The [design] openings of a resistance map: parsed here, with the other
   // case keys, so that reading a case does not need the solver.

@@ -20,6 +20,14 @@ namespace rectify::stokes
     std::string schur              = "gap";     ///< Schur complement preconditioner: "gap" (mass + thin-gap Laplacian) or "mass"
     double      tolerance          = 1e-11;     ///< relative residual of the iterative solver (mass balance ~1e-9)
     long        max_iterations     = 2000;
+    /// "solve": the resistance sweeps also solve the reed's fluid loading at
+    /// every opening (FluidLoading: a second solve on the same matrix and
+    /// the added mass's potential flow); "skip": R and A_eff only.
+    std::string reed_loading = "solve";
+    /// The iterative solver's relative residual for the moving reed's solve:
+    /// the loading's asymmetry (its two computations of one number) shows
+    /// what it leaves (about 1e-9 at 1e-7; docs/fluid-loading.md).
+    double      loading_tolerance = 1e-7;
     // Steady Navier-Stokes by Newton's method from the Stokes flow (`rectify
     // stokes --navier-stokes`; not a case key: the map is Stokes, linear in Q).
     bool        navier_stokes         = false;

@@ -21,7 +21,9 @@ namespace rectify::stokes
       "opening_m",        "R_Pa_s_per_m3",          "R_dissipation_Pa_s_per_m3", "reed_force_N",
       "A_eff_m2",         "pressure_drop_Pa",       "R_thin_gap_Pa_s_per_m3",    "reynolds_port",
       "reynolds_gap_exit", "mass_balance_rel_error", "n_dofs",                    "iterations",
-      "wall_time_s"};
+      "wall_time_s",      "R_energy_Pa_s_per_m3",   "dp_per_tip_velocity_Pa_s_per_m", "force_per_flow_Pa_s_per_m",
+      "damping_N_s_per_m", "damping_fixed_dp_N_s_per_m", "A_modal_m2", "loading_asymmetry", "added_mass_kg",
+      "swept_area_m2",    "loading_time_s"};
     return c;
   }
 
@@ -29,7 +31,9 @@ namespace rectify::stokes
   {
     return {opening_m,         R_Pa_s_per_m3,          R_dissipation_Pa_s_per_m3, reed_force_N, A_eff_m2,
             pressure_drop_Pa,  R_thin_gap_Pa_s_per_m3, reynolds_port,             reynolds_gap_exit,
-            mass_balance_rel_error, n_dofs,            iterations,                wall_time_s};
+            mass_balance_rel_error, n_dofs,            iterations,                wall_time_s,
+            R_energy_Pa_s_per_m3, dp_per_tip_velocity_Pa_s_per_m, force_per_flow_Pa_s_per_m, damping_N_s_per_m,
+            damping_fixed_dp_N_s_per_m, A_modal_m2, loading_asymmetry, added_mass_kg, swept_area_m2, loading_time_s};
   }
 
   OpeningPoint OpeningPoint::from_row(const std::vector<double> &r)
@@ -39,6 +43,10 @@ namespace rectify::stokes
     p.reed_force_N = r.at(3), p.A_eff_m2 = r.at(4), p.pressure_drop_Pa = r.at(5);
     p.R_thin_gap_Pa_s_per_m3 = r.at(6), p.reynolds_port = r.at(7), p.reynolds_gap_exit = r.at(8);
     p.mass_balance_rel_error = r.at(9), p.n_dofs = r.at(10), p.iterations = r.at(11), p.wall_time_s = r.at(12);
+    p.R_energy_Pa_s_per_m3 = r.at(13), p.dp_per_tip_velocity_Pa_s_per_m = r.at(14);
+    p.force_per_flow_Pa_s_per_m = r.at(15), p.damping_N_s_per_m = r.at(16), p.damping_fixed_dp_N_s_per_m = r.at(17);
+    p.A_modal_m2 = r.at(18), p.loading_asymmetry = r.at(19), p.added_mass_kg = r.at(20), p.swept_area_m2 = r.at(21);
+    p.loading_time_s = r.at(22);
     return p;
   }
 
@@ -67,11 +75,40 @@ namespace rectify::stokes
     return {std::exp(r_cubic.evaluate(std::log(x)).value), a_cubic.evaluate(std::log(x)).value};
   }
 
+  ReedMotion reed_motion(const mesher::MeshParameters &mp)
+  {
+    const double L = mp.geometry.reed_length_m;
+    return {[shape = mp.sampled_shape(), L](double px, double) { return shape(std::clamp(px, 0.0, L)); }, true};
+  }
+
+  nlohmann::json to_json(const FluidLoading &l)
+  {
+    return {{"K_QQ_Pa_s_per_m3", l.K_QQ_Pa_s_per_m3},
+            {"K_Qv_Pa_s_per_m", l.K_Qv_Pa_s_per_m},
+            {"K_vQ_Pa_s_per_m", l.K_vQ_Pa_s_per_m},
+            {"K_vv_N_s_per_m", l.K_vv_N_s_per_m},
+            {"asymmetry", l.asymmetry},
+            {"A_modal_m2", l.A_modal_m2},
+            {"damping_fixed_dp_N_s_per_m", l.damping_fixed_dp_N_s_per_m},
+            {"swept_flow_m3_per_s", l.swept_flow_m3_per_s},
+            {"outflow_b_m3_per_s", l.outflow_b_m3_per_s},
+            {"mass_balance_b_rel_error", l.mass_balance_b_rel_error},
+            {"reed_force_b_N", l.reed_force_b_N},
+            {"added_mass_kg", l.added_mass_kg},
+            {"added_mass_boundary_kg", l.added_mass_boundary_kg},
+            {"potential_dofs", l.potential_dofs},
+            {"solve_time_s", l.solve_time_s},
+            {"meaning", "(dp, -F) = K (Q, v): Q the flow through the valve, v the reed's tip velocity, F the "
+                        "modal force on the reed (its shape normalised to the tip); docs/fluid-loading.md"}};
+  }
+
   OpeningPoint solve_opening(const mesher::MeshParameters &mp, const FlowParameters &fp, double x,
                              const MpiSession &mpi)
   {
-    const auto          valve = mesher::mesh_valve(mp, x, false);
-    const StokesResult  r     = solve_stokes(valve.mesh, fp);
+    const auto         valve   = mesher::mesh_valve(mp, x, false);
+    const ReedMotion   motion  = reed_motion(mp);
+    const bool         loading = fp.settings.reed_loading == "solve";
+    const StokesResult         r       = solve_stokes(valve.mesh, fp, {}, false, loading ? &motion : nullptr);
     OpeningPoint        p;
     p.opening_m                 = x;
     p.R_Pa_s_per_m3             = r.R_pressure_Pa_s_per_m3;
@@ -87,6 +124,20 @@ namespace rectify::stokes
     p.n_dofs                 = static_cast<double>(r.n_dofs);
     p.iterations             = r.iterations;
     p.wall_time_s            = r.wall_time_s;
+    if (loading)
+      {
+        const auto &l                    = r.loading;
+        p.R_energy_Pa_s_per_m3           = l.K_QQ_Pa_s_per_m3;
+        p.dp_per_tip_velocity_Pa_s_per_m = l.K_Qv_Pa_s_per_m;
+        p.force_per_flow_Pa_s_per_m      = l.K_vQ_Pa_s_per_m;
+        p.damping_N_s_per_m              = l.K_vv_N_s_per_m;
+        p.damping_fixed_dp_N_s_per_m     = l.damping_fixed_dp_N_s_per_m;
+        p.A_modal_m2                     = l.A_modal_m2;
+        p.loading_asymmetry              = l.asymmetry;
+        p.added_mass_kg                  = l.added_mass_kg;
+        p.swept_area_m2                  = l.swept_flow_m3_per_s;
+        p.loading_time_s                 = l.solve_time_s;
+      }
     // Every process holds the root's numbers (the sums are reduced, but the
     // thin-gap estimate and timings are each process's own).
     return OpeningPoint::from_row(mpi.broadcast(p.row()));

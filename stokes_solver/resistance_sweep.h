@@ -44,6 +44,18 @@ namespace rectify::stokes
     double reynolds_port = 0, reynolds_gap_exit = 0;
     double mass_balance_rel_error = 0;
     double n_dofs = 0, iterations = 0, wall_time_s = 0;
+    // The reed's fluid loading (FluidLoading in stokes.h; zero with [flow] reed_loading = "skip"):
+    double R_energy_Pa_s_per_m3 = 0;       ///< K_QQ
+    double dp_per_tip_velocity_Pa_s_per_m = 0; ///< K_Qv
+    double force_per_flow_Pa_s_per_m = 0;  ///< K_vQ (minus the modal force per unit flow)
+    double damping_N_s_per_m = 0;          ///< K_vv: the squeeze film at Q = 0
+    double damping_fixed_dp_N_s_per_m = 0; ///< at a fixed pressure drop
+    double A_modal_m2 = 0;                 ///< -K_vQ / K_QQ
+    double loading_asymmetry = 0;
+    double added_mass_kg = 0;
+    double swept_area_m2 = 0;              ///< the volume the reed sweeps per unit tip travel
+    double loading_time_s = 0;
+    bool   has_loading() const { return damping_N_s_per_m > 0; }
     static const std::vector<std::string> &columns();
     std::vector<double> row() const;
     static OpeningPoint from_row(const std::vector<double> &row);
@@ -68,7 +80,16 @@ namespace rectify::stokes
     std::size_t n_resumed = 0; ///< openings taken from the checkpoint
   };
 
-  /// Meshes and solves one opening; every process returns the root's numbers.
+  /// The reed's motion for the fluid loading on the meshes of `mesh`: its
+  /// surface moves as the mesher's shape phi(x) (clamp line x = 0, tip x =
+  /// reed_length_m, held beyond) per unit tip velocity.
+  ReedMotion reed_motion(const mesher::MeshParameters &mesh);
+
+  /// FluidLoading as JSON (the map's entries and their checks).
+  nlohmann::json to_json(const FluidLoading &loading);
+
+  /// Meshes and solves one opening (with the fluid loading if [flow]
+  /// reed_loading = "solve"); every process returns the root's numbers.
   OpeningPoint solve_opening(const mesher::MeshParameters &mesh, const FlowParameters &flow, double opening_m,
                              const MpiSession &mpi);
 

@@ -5,7 +5,9 @@
 
 #include <array>
 #include <filesystem>
+#include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "mesher/tet_mesh.h"
@@ -28,6 +30,55 @@ namespace rectify::stokes
   private:
     struct Impl;
     Impl *impl_;
+  };
+
+  /// What the fluid loading needs to know of the reed's motion: the
+  /// velocity of its surface per unit tip velocity, w(x, y) e_z (small
+  /// deflections; the mesher's shape phi(x) along the reed, 1 at the tip).
+  struct ReedMotion
+  {
+    std::function<double(double x, double y)> shape;
+    bool added_mass = true; ///< also solve the potential flow for the added mass
+  };
+
+  /// The reed's quasi-static fluid loading at one opening (docs/fluid-loading.md).
+  /// Stokes flow is linear in its boundary data: the inflow Q through the
+  /// inlet (the parabolic profile) and the reed's tip velocity v (shape w).
+  /// With the generalised forces conjugate to them - the pressure drop dp
+  /// (relative to the outlet) and minus the modal force F = integral of
+  /// traction . w e_z on the reed - the two solves (a) Q = 1, v = 0 and
+  /// (b) Q = 0, v = 1 on the same matrix give
+  ///   ( dp )   ( K_QQ  K_Qv ) ( Q )
+  ///   ( -F ) = ( K_vQ  K_vv ) ( v ),
+  /// symmetric by the reciprocal theorem (K_Qv from solve (b), K_vQ from
+  /// solve (a): two computations of one number) and positive definite (it is
+  /// the dissipation's quadratic form). Each force is the residual of the
+  /// discrete momentum equation tested with the other solve's boundary data
+  /// (consistent, not a face integral of the stresses).
+  struct FluidLoading
+  {
+    bool   computed = false;
+    double K_QQ_Pa_s_per_m3 = 0; ///< the dissipation's R (= R_gradient_dissipation)
+    double K_Qv_Pa_s_per_m  = 0; ///< dp per unit tip velocity at Q = 0, solve (b)
+    double K_vQ_Pa_s_per_m  = 0; ///< -F per unit Q at v = 0, solve (a)
+    double K_vv_N_s_per_m   = 0; ///< the squeeze-film damping c at Q = 0
+    double asymmetry        = 0; ///< |K_Qv - K_vQ| / sqrt(K_QQ K_vv)
+    /// The modal force per unit pressure drop of flow with the reed still,
+    /// -K_vQ / K_QQ: also the flow drawn through the valve per unit tip
+    /// velocity at a fixed pressure drop (reciprocity).
+    double A_modal_m2 = 0;
+    /// The damping felt at a fixed pressure drop, K_vv - K_Qv K_vQ / K_QQ
+    /// (the Schur complement; the fluid displaced may leave through the port).
+    double damping_fixed_dp_N_s_per_m = 0;
+    double swept_flow_m3_per_s = 0;         ///< -integral of w e_z . n over the reed (as the DoFs hold it): solve (b)'s outflow per unit v
+    double outflow_b_m3_per_s  = 0;         ///< solve (b)'s outflow through the outlet
+    double mass_balance_b_rel_error = 0;    ///< |outflow - swept| / swept
+    double reed_force_b_N = 0;              ///< z-force on the reed in solve (b) (face integral; < 0)
+    double added_mass_kg  = 0;              ///< rho integral |grad phi|^2 of the potential flow, per unit tip velocity squared
+    double added_mass_boundary_kg = 0;      ///< the same from rho integral phi dphi/dn over the reed (a check)
+    std::size_t potential_dofs = 0;
+    unsigned    potential_iterations = 0;
+    double      solve_time_s = 0; ///< solve (b), the forces and the potential flow
   };
 
   struct StokesResult
@@ -57,6 +108,7 @@ namespace rectify::stokes
     unsigned    newton_iterations    = 0; ///< Navier-Stokes: Newton steps after the Stokes solve
     double      setup_time_s = 0, assembly_time_s = 0, solve_time_s = 0, wall_time_s = 0;
     unsigned    n_processes = 1;
+    FluidLoading loading; ///< with a ReedMotion only
   };
 
   /// Solves Stokes flow (and with settings.navier_stokes then steady
@@ -67,6 +119,16 @@ namespace rectify::stokes
   /// pressure as VTU (with a .pvtu record) into `vtu_dir` if not empty.
   /// Throws InputError for bad parameters or a mesh without inlet or outlet,
   /// std::runtime_error if the solver does not converge.
+  /// With `motion`, also the reed's fluid loading (result.loading; of the
+  /// Stokes flow, before any Navier-Stokes steps).
   StokesResult solve_stokes(const mesher::TetMesh &mesh, const FlowParameters &parameters,
-                            const std::filesystem::path &vtu_dir = {}, bool verbose = false);
+                            const std::filesystem::path &vtu_dir = {}, bool verbose = false,
+                            const ReedMotion *motion = nullptr);
+
+  /// The added mass alone (the potential flow of FluidLoading) on any mesh
+  /// with an outlet and a reed: rho integral |grad phi|^2, per unit tip
+  /// velocity squared, and the boundary integral's value as a check
+  /// ({energy form, boundary form}). One process.
+  std::pair<double, double> added_mass(const mesher::TetMesh &mesh, const std::function<double(double, double)> &shape,
+                                       double density_kg_per_m3, bool direct = true);
 } // namespace rectify::stokes

@@ -46,7 +46,10 @@ namespace rectify::system
 
     reed.stiffness   = p.reed.stiffness_N_per_m;
     reed.mass        = p.reed.effective_mass_kg;
-    reed.damping     = 2.0 * p.reed.damping_ratio * std::sqrt(reed.stiffness * reed.mass);
+    // With the fluid's loading from the map sets, the reed's own damping is
+    // the structural part; the squeeze film's c(x) comes on top (Model::rhs).
+    reed.damping = 2.0 * (p.reed.fluid_loading == "map" ? p.reed.structural_damping_ratio : p.reed.damping_ratio) *
+                   std::sqrt(reed.stiffness * reed.mass);
     reed.area        = p.reed.pressure_area_m2;
     reed.restitution = p.reed.restitution;
 
@@ -147,7 +150,48 @@ namespace rectify::system
     , valves_(valves)
     , scenario_(scenario)
     , drive_(std::move(drive))
-  {}
+  {
+    loading_ = parameters.reed.fluid_loading == "map" && valves_ == ValveModel::dynamic;
+    if (!loading_)
+      return;
+    if (c_.k_r2 > 0)
+      throw InputError("[reed] fluid_loading = \"map\" takes the reed's first mode only; second_mode_frequency_Hz = " +
+                       format_number(parameters.reed.second_mode_frequency_Hz) + " is not supported with it");
+    for (std::size_t v = 0; v < 2; ++v)
+      {
+        if (!maps_[v].loading())
+          throw InputError(std::string("[reed] fluid_loading = \"map\": the ") + (v == 0 ? "outlet" : "inlet") +
+                           " valve's map set '" + maps_[v].name() +
+                           "' has no loading table (loading.csv; made with [flow] reed_loading = \"skip\", by an "
+                           "older rectify, or not a `rectify design` map set): run `rectify design` with "
+                           "reed_loading = \"solve\", or use fluid_loading = \"thesis\"");
+        // The map's masses and damping are referred to the tip (the shape's
+        // generalised coordinate), the model's k_r and A_eff to a total
+        // port load: their ratio gamma = A_m / A_eff (the shape's mean under
+        // the pressure) converts one into the other (docs/fluid-loading.md).
+        double sum = 0;
+        for (const auto &r : maps_[v].loading()->rows())
+          sum += r.A_modal_m2 / maps_[v].area().evaluate(r.opening_m).area;
+        loading_scale_[v] = sum / static_cast<double>(maps_[v].loading()->rows().size());
+        if (!(loading_scale_[v] > 0 && loading_scale_[v] <= 1.5))
+          throw InputError("map set '" + maps_[v].name() + "': the loading's modal area over A_eff is " +
+                           format_number(loading_scale_[v]) + " on average (expected in (0, 1.5])");
+        structural_damping_[v] = c_.reed.damping / std::sqrt(loading_scale_[v]); // 2 zeta sqrt(k m / gamma)
+      }
+  }
+
+  std::optional<maps::LoadingMap::Value> Model::loading(std::size_t v, std::span<const double> y) const
+  {
+    if (!loading_ || closed_[v])
+      return std::nullopt;
+    return maps_[v].loading()->evaluate(opening(v, y));
+  }
+
+  double Model::displaced_flow(std::size_t v, std::span<const double> y) const
+  {
+    const auto l = loading(v, y);
+    return l ? l->A_modal * y[v == 0 ? state::outlet_reed_v : state::inlet_reed_v] : 0.0;
+  }
 
   Model::Model(const SystemParameters &parameters, maps::ResistanceMap map, ValveModel valves,
                Scenario scenario, Drive drive)
@@ -188,7 +232,7 @@ namespace rectify::system
   {
     return c_.fluid.free_air_fraction > 0 || c_.C_seal > 0 || c_.R_leak > 0 || c_.K_leak > 0 ||
            c_.orifice_factor > 0 || c_.L_line > 0 || (drive_.is_voltage() && c_.coil_dynamics) ||
-           c_.F_coulomb > 0 || c_.k_r2 > 0;
+           c_.F_coulomb > 0 || c_.k_r2 > 0 || loading_;
   }
 
   double Model::opening(std::size_t v, std::span<const double> y) const
@@ -344,11 +388,18 @@ namespace rectify::system
     };
     const double K1 = orifice(0), K2 = orifice(1);
     const double g5 = 1.0 / c_.R5, g6 = 1.0 / c_.R6;
+    // A moving reed draws q_d = A_m(x) v through its valve at a fixed drop
+    // (fluid loading "map"): the valve's drop is R (q - q_d), a pressure
+    // source R q_d in the branch. (With a turbulent leak the source stands
+    // in the shared drop as well: exact for the laminar parts.)
+    const double q_d1 = displaced_flow(0, y), q_d2 = displaced_flow(1, y);
+    const double s1 = f.R1 * q_d1, s2 = f.R2 * q_d2;
 
     // Each valve's branch, its line R_s in series: the flow for a drop dp
     // (and, with a turbulent leak, the drop u across valve and leak).
     double     u_outlet = 0, u_inlet = 0;
     const auto outlet_branch = [&](double R_s, double dp) {
+      dp += s1;
       if (!quadratic_leak)
         return branch_flow(f.R1 + R_s, K1, dp).first;
       const auto b = leaky_branch_flow(f.R1, K1, c_.R_leak, c_.K_leak, R_s, dp);
@@ -364,6 +415,7 @@ namespace rectify::system
       f.q_outlet = f.q_line = outlet_branch(c_.R3, p_ch - p_h);
     // the inlet branch, junction -> chamber: flow and its derivative
     const auto inlet_branch = [&](double dp) {
+      dp += s2;
       if (!quadratic_leak)
         return branch_flow(f.R2 + c_.R4, K2, dp);
       const auto b = leaky_branch_flow(f.R2, K2, c_.R_leak, c_.K_leak, c_.R4, dp);
@@ -373,8 +425,8 @@ namespace rectify::system
     if (K2 == 0.0 && !quadratic_leak)
       {
         const double g24 = 1.0 / (f.R2 + c_.R4);
-        f.p_junction     = (g24 * p_ch + g5 * p_acc + g6 * p_l) / (g24 + g5 + g6);
-        f.q_inlet        = g24 * (f.p_junction - p_ch);
+        f.p_junction     = (g24 * (p_ch - s2) + g5 * p_acc + g6 * p_l) / (g24 + g5 + g6);
+        f.q_inlet        = g24 * (f.p_junction - p_ch + s2);
       }
     else
       { // Kirchhoff at the junction, g5 (p_a - p_acc) + g6 (p_a - p_l) + q_in(p_a - p_ch) = 0,
@@ -404,8 +456,10 @@ namespace rectify::system
     f.q_low         = g6 * (f.p_junction - p_l);
     // valve pressure drops: R q + K q|q| (p_o = (R1 p_h + R3 p_ch)/(R1 + R3) when linear)
     // (with a turbulent leak the valve carries only part of q: its drop is u)
-    f.p_outlet = quadratic_leak ? p_ch - u_outlet : p_ch - f.R1 * f.q_outlet - K1 * f.q_outlet * std::abs(f.q_outlet);
-    f.p_inlet  = quadratic_leak ? p_ch + u_inlet : p_ch + f.R2 * f.q_inlet + K2 * f.q_inlet * std::abs(f.q_inlet);
+    f.p_outlet = quadratic_leak ? p_ch - u_outlet
+                                : p_ch - f.R1 * (f.q_outlet - q_d1) - K1 * f.q_outlet * std::abs(f.q_outlet);
+    f.p_inlet  = quadratic_leak ? p_ch + u_inlet
+                                : p_ch + f.R2 * (f.q_inlet - q_d2) + K2 * f.q_inlet * std::abs(f.q_inlet);
     f.outlet_force  = force_area(0, y).area * (p_ch - f.p_outlet);
     f.inlet_force   = force_area(1, y).area * (f.p_inlet - p_ch);
     return f;
@@ -449,8 +503,16 @@ namespace rectify::system
         // and keeps the tip's acceleration at zero, while the modes'
         // difference rings as the tip-pinned reed.
         const double reaction = closed_[v] ? seat_reaction(force[v], y[ix], y[ix + 1], y[ix2], y[ix2 + 1]) : 0.0;
-        ydot[ix]     = y[ix + 1];
-        ydot[ix + 1] = reed_acceleration(c_.reed, y[ix], y[ix + 1], force[v] + reaction);
+        ydot[ix] = y[ix + 1];
+        if (const auto l = loading(v, y))
+          { // Lagrange with the mass M(x) = (m_r + m_a(x)) / gamma: M x'' + M'(x) x'^2 / 2 = F - (b_s + c(x) / gamma) x' - k x
+            const double x = y[ix], u = y[ix + 1], g = loading_scale_[v];
+            ydot[ix + 1] = (force[v] + reaction - (structural_damping_[v] + l->damping / g) * u -
+                            0.5 * l->added_mass_slope / g * u * u - c_.reed.stiffness * x) /
+                           ((c_.reed.mass + l->added_mass) / g);
+          }
+        else
+          ydot[ix + 1] = reed_acceleration(c_.reed, y[ix], y[ix + 1], force[v] + reaction);
         if (c_.k_r2 > 0)
           {
             ydot[ix2]     = y[ix2 + 1];

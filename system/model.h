@@ -26,6 +26,7 @@
 #pragma once
 
 #include <array>
+#include <optional>
 #include <nlohmann/json.hpp>
 #include <span>
 #include <vector>
@@ -170,6 +171,16 @@ namespace rectify::system
     Flows               flows(std::span<const double> y) const;
     /// Tip opening of valve v (0 outlet, 1 inlet): first plus second mode.
     double              opening(std::size_t v, std::span<const double> y) const;
+    /// The fluid's loading on open reed `v` (docs/fluid-loading.md) at its
+    /// opening, with [reed] fluid_loading = "map"; none otherwise.
+    std::optional<maps::LoadingMap::Value> loading(std::size_t v, std::span<const double> y) const;
+    /// gamma of valve `v`: the loading map's tip-referred mass and damping are
+    /// divided by it in the reed's equation (1 without loading).
+    double              loading_scale(std::size_t v) const { return loading_scale_[v]; }
+    /// The reed's structural damping b_s with the loading (its mass m_r / gamma).
+    double              structural_damping(std::size_t v) const { return structural_damping_[v]; }
+    /// The flow reed `v` draws through its valve by moving, A_m(x) v (0 without loading).
+    double              displaced_flow(std::size_t v, std::span<const double> y) const;
     /// Coil current: the drive itself, V/R, or the coil state (coil dynamics).
     double              current_A(double t, std::span<const double> y) const;
     /// Oil (and free air) volume stored at gauge pressure p on node 0 chamber,
@@ -218,5 +229,8 @@ namespace rectify::system
     Drive                 drive_;
     std::array<bool, 2>   closed_{true, true};
     std::size_t           n_impacts_ = 0;
+    bool                  loading_   = false; ///< [reed] fluid_loading = "map" (dynamic valves)
+    std::array<double, 2> loading_scale_{1.0, 1.0};      ///< gamma = mean A_m / A_eff of each valve's map
+    std::array<double, 2> structural_damping_{0.0, 0.0}; ///< b_s with the mass m_r / gamma
   };
 } // namespace rectify::system

@@ -115,6 +115,12 @@ namespace rectify::system
     p.restitution       = f.real(t, "restitution", p.restitution, Bounds{0.0, 1.0, true, false});
     p.second_mode_frequency_Hz =
       f.real(t, "second_mode_frequency_Hz", p.second_mode_frequency_Hz, non_negative);
+    p.fluid_loading = f.text(t, "fluid_loading", p.fluid_loading, {"thesis", "map"});
+    p.structural_damping_ratio =
+      f.real(t, "structural_damping_ratio", p.structural_damping_ratio, Bounds{0.0, 1.0, true, false});
+    if (p.fluid_loading == "thesis" && f.has(t, "structural_damping_ratio"))
+      throw InputError(f.where(t, "structural_damping_ratio") +
+                       ": read only with fluid_loading = \"map\" (the thesis's damping_ratio holds all of it)");
     if (p.second_mode_frequency_Hz > 0.0 &&
         p.second_mode_frequency_Hz <= p.natural_frequency_Hz())
       throw InputError(f.where(t, "second_mode_frequency_Hz") + " = " +
@@ -291,6 +297,11 @@ namespace rectify::system
       p.reed.stiffness_N_per_m = reed->stiffness_N_per_m;
       p.reed.effective_mass_kg = eq321 ? reed->effective_mass_eq321_kg : reed->modal_mass_in_fluid_kg;
       p.reed.source = "map set " + reed_from + (eq321 ? " (mass: eq. 3.21)" : " (mass: FE mode in oil)");
+      if (p.reed.fluid_loading == "map")
+        { // the fluid's share comes from the loading maps
+          p.reed.effective_mass_kg = reed->modal_mass_kg;
+          p.reed.source            = "map set " + reed_from + " (mass: first mode in vacuum + the map's added mass)";
+        }
       const double f1 = p.reed.natural_frequency_Hz();
       if (p.reed.second_mode_frequency_Hz > 0.0 && p.reed.second_mode_frequency_Hz <= f1)
         throw InputError(f.where("reed", "second_mode_frequency_Hz") + " = " +
@@ -464,6 +475,8 @@ namespace rectify::system
         {"pressure_area_m2", reed.pressure_area_m2},
         {"restitution", reed.restitution},
         {"second_mode_frequency_Hz", reed.second_mode_frequency_Hz},
+        {"fluid_loading", reed.fluid_loading},
+        {"structural_damping_ratio", reed.structural_damping_ratio},
         {"source", reed.source}}},
       {"valves",
        {{"outlet_map_set", valves.map_set[0]},

@@ -66,6 +66,15 @@ namespace rectify::system
     /// Which mass a reed map or a map set gives: "eq321" (the thesis's 2.75
     /// (m_plate + m_added)) or "modal-in-fluid" (the FE first mode in oil).
     std::string properties_mass = "eq321";
+    /// The fluid's loading on the reed (docs/fluid-loading.md): "thesis",
+    /// the constant damping ratio and the effective mass above (eq. 3.21's
+    /// added mass and 2.75 factor inside it); or "map", from both valves'
+    /// map sets: the mass is the first mode's in vacuum plus the added mass
+    /// m_a(x), the damping the squeeze film's c(x) plus
+    /// structural_damping_ratio's, and the moving reed draws A_m(x) v
+    /// through its valve.
+    std::string fluid_loading = "thesis";
+    double      structural_damping_ratio = 0.0; ///< with fluid_loading = "map"
     /// Reads [reed]. With `properties_map` set, k_r and m_r are interpolated
     /// (linearly in thickness) from that map at `properties_thickness_m`,
     /// the mass column chosen by `properties_mass`; giving them in the case

@@ -82,6 +82,28 @@ TEST(Design, MapSetInterpolatesExtraSolvesTwoProcessesAgreeAndItResumes)
                    std::log(4.0);
   EXPECT_NEAR(n, 3.0, 0.1);
   EXPECT_GT(set.area().evaluate(10e-6).area, 1.5 * set.seated_area_m2());
+  // The reed's fluid loading at every opening (docs/fluid-loading.md):
+  // reciprocal, the squeeze film ~ x^-3 and the added mass ~ 1/x in the thin
+  // gap, the damping at a fixed drop below the port-shut one, the modal
+  // area below A_eff (the shape is below 1 over the port).
+  ASSERT_TRUE(set.loading());
+  const auto &rows = set.loading()->rows();
+  ASSERT_EQ(rows.size(), points.size());
+  for (std::size_t i = 0; i < rows.size(); ++i)
+    {
+      EXPECT_LT(rows[i].asymmetry, 1e-6) << i;
+      EXPECT_LT(rows[i].damping_fixed_dp_N_s_per_m, rows[i].damping_N_s_per_m) << i;
+      EXPECT_GT(rows[i].A_modal_m2, 0.2 * set.area().evaluate(rows[i].opening_m).area) << i;
+      EXPECT_LT(rows[i].A_modal_m2, set.area().evaluate(rows[i].opening_m).area) << i;
+      if (i > 0)
+        {
+          EXPECT_LT(rows[i].damping_fixed_dp_N_s_per_m, rows[i - 1].damping_fixed_dp_N_s_per_m) << i;
+          EXPECT_LT(rows[i].added_mass_kg, rows[i - 1].added_mass_kg) << i; // it rises toward the seat
+        }
+    }
+  const auto l10 = set.loading()->evaluate(10e-6), l40 = set.loading()->evaluate(40e-6);
+  EXPECT_NEAR(std::log(l10.damping / l40.damping) / std::log(4.0), 3.0, 0.15);
+  EXPECT_NEAR(std::log(l10.added_mass / l40.added_mass) / std::log(4.0), 1.0, 0.15);
 
   // The interpolant against extra solves at random openings, on the same FE shape.
   std::mt19937 rng(11);
@@ -97,6 +119,10 @@ TEST(Design, MapSetInterpolatesExtraSolvesTwoProcessesAgreeAndItResumes)
       const auto s = read_json(dir / ("extra" + std::to_string(k)) / "summary.json");
       EXPECT_NEAR(set.resistance().evaluate(x).resistance / s["R_Pa_s_per_m3"].get<double>(), 1.0, 0.02) << x;
       EXPECT_NEAR(set.area().evaluate(x).area / s["A_eff_m2"].get<double>(), 1.0, 0.02) << x;
+      EXPECT_NEAR(set.loading()->evaluate(x).damping / s["reed_loading"]["damping_fixed_dp_N_s_per_m"].get<double>(),
+                  1.0, 0.03) << x;
+      EXPECT_NEAR(set.loading()->evaluate(x).added_mass / s["reed_loading"]["added_mass_kg"].get<double>(), 1.0, 0.03)
+        << x;
     }
 
   // Two processes: the same map to 1e-9.
@@ -110,6 +136,12 @@ TEST(Design, MapSetInterpolatesExtraSolvesTwoProcessesAgreeAndItResumes)
     EXPECT_NEAR(set2.resistance().resistances()[i] / set.resistance().resistances()[i], 1.0, 1e-9) << i;
   for (std::size_t i = 0; i < set.area().openings().size(); ++i)
     EXPECT_NEAR(set2.area().areas()[i] / set.area().areas()[i], 1.0, 1e-9) << i;
+  for (std::size_t i = 0; i < set.loading()->rows().size(); ++i)
+    {
+      EXPECT_NEAR(set2.loading()->rows()[i].damping_N_s_per_m / set.loading()->rows()[i].damping_N_s_per_m, 1.0, 1e-9)
+        << i;
+      EXPECT_NEAR(set2.loading()->rows()[i].added_mass_kg / set.loading()->rows()[i].added_mass_kg, 1.0, 1e-9) << i;
+    }
   EXPECT_EQ(read_json(dir / "two" / "manifest.json")["settings"]["n_processes"], 2);
 
   // Interrupted after some openings: the run again solves only the rest.

@@ -1,0 +1,30 @@
+// Internal to the Stokes solver: the potential flow that a moving reed
+// drives in the fluid domain, for its added mass (docs/fluid-loading.md).
+// Laplace's equation for the velocity potential phi on the flow's mesh,
+// FE_SimplexP(2): d phi / dn = w n_z on the reed (its surface moving with
+// w(x, y) e_z per unit tip velocity), phi = 0 on the outlet (the pocket
+// opens into the outlet line: no pressure disturbance there), no flow
+// through the walls and the inlet (the port shut, as in the squeeze solve).
+#pragma once
+
+#include <deal.II/base/mpi.h>
+#include <deal.II/fe/mapping.h>
+#include <deal.II/grid/tria.h>
+
+#include <cstddef>
+#include <functional>
+
+namespace rectify::stokes
+{
+  struct PotentialFlow
+  {
+    double      energy_integral   = 0; ///< integral of |grad phi|^2 over the fluid [m^3]
+    double      boundary_integral = 0; ///< integral of phi dphi/dn over the reed (equal, a check)
+    std::size_t n_dofs            = 0;
+    unsigned    iterations        = 0; ///< CG iterations (1 for the direct solver)
+  };
+
+  /// `direct`: MUMPS; otherwise CG with BoomerAMG.
+  PotentialFlow solve_potential_flow(const dealii::Triangulation<3> &triangulation, const dealii::Mapping<3> &mapping,
+                                     const std::function<double(double, double)> &shape, bool direct, MPI_Comm comm);
+} // namespace rectify::stokes
