@@ -62,16 +62,7 @@ namespace rectify::app
       {
         auto p = system::SystemParameters::from_case(file);
         if (!fluid_loading.empty())
-          {
-            p.reed.fluid_loading = fluid_loading;
-            // The reed's mass depends on it: the map sets are applied again.
-            if (map_set.empty() && !p.valves.map_set[0].empty())
-              {
-                if (p.valves.map_set[0] != p.valves.map_set[1])
-                  throw InputError("--fluid-loading with the case's two map sets: give --map-set");
-                system::use_map_set(p, file, p.valves.map_set[0]);
-              }
-          }
+          system::use_fluid_loading(p, file, fluid_loading);
         if (!map_set.empty())
           system::use_map_set(p, file, map_set);
         if (!std::isnan(current_pp_A))

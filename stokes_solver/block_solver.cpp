@@ -170,11 +170,15 @@ namespace rectify::stokes
     double initial_norm = 1;
     if (settings.verbose && rank == 0)
       check_petsc(KSPMonitorSet(o.ksp, report_progress, &initial_norm, nullptr), "KSPMonitorSet");
+    // What the options left (PETSC_OPTIONS may have changed any of them).
+    PetscReal rtol, abstol, dtol;
+    PetscInt  max_it;
+    check_petsc(KSPGetTolerances(o.ksp, &rtol, &abstol, &dtol, &max_it), "KSPGetTolerances");
     unsigned total = 0;
-    for (const auto &[rhs, solution, tolerance] : systems)
+    for (const auto &[rhs, solution, own_tolerance, key] : systems)
       {
-        check_petsc(KSPSetTolerances(o.ksp, tolerance, 1e-300, 1e10, static_cast<PetscInt>(settings.max_iterations)),
-                    "KSPSetTolerances");
+        const double tolerance = own_tolerance > 0 ? own_tolerance : rtol;
+        check_petsc(KSPSetTolerances(o.ksp, tolerance, abstol, dtol, max_it), "KSPSetTolerances");
         check_petsc(KSPSolve(o.ksp, rhs, solution), "KSPSolve");
         KSPConvergedReason reason;
         PetscInt           its;
@@ -183,9 +187,8 @@ namespace rectify::stokes
         if (reason < 0)
           throw std::runtime_error("the Stokes solver did not converge: " + block_solver_name(gap_laplace != nullptr) +
                                    ", " + std::to_string(its) + " iterations, PETSc reason " +
-                                   std::to_string(reason) + " ([flow] tolerance = " +
-                                   format_number(tolerance) +
-                                   ", max_iterations = " + std::to_string(settings.max_iterations) + ")");
+                                   std::to_string(reason) + " (" + key + " = " + format_number(tolerance) +
+                                   ", [flow] max_iterations = " + std::to_string(max_it) + ")");
         total += static_cast<unsigned>(its);
       }
     return total;

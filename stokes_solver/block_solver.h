@@ -23,15 +23,18 @@ namespace rectify::stokes
     bool   verbose        = false; ///< progress every 20 iterations on stderr (rank 0)
   };
 
-  /// One right-hand side, its solution and the relative residual it needs.
+  /// One right-hand side, its solution and the relative residual it needs:
+  /// 0 for the solver's own (settings.tolerance, or PETSC_OPTIONS's
+  /// -rectify_ksp_rtol), with the case key that sets it for messages.
   struct BlockRhs
   {
-    Vec    rhs, solution;
-    double tolerance;
+    Vec         rhs, solution;
+    double      tolerance = 0;
+    const char *tolerance_key = "[flow] tolerance";
   };
 
   /// Solves system x = rhs for each of `systems`, with one preconditioner
-  /// set-up (settings.tolerance is not used). `preconditioner` is the system matrix with the
+  /// set-up. `preconditioner` is the system matrix with the
   /// (negative) scaled pressure mass matrix in the zero pressure block;
   /// `gap_laplace`, if not null, the (positive) scaled thin-gap Laplacian in
   /// the pressure block of a matrix of the system's size. `velocity` and

@@ -21,10 +21,11 @@ namespace rectify::stokes
     double      energy_integral   = 0; ///< integral of |grad phi|^2 over the fluid [m^3]
     double      boundary_integral = 0; ///< integral of phi dphi/dn over the reed (equal, a check)
     std::size_t n_dofs            = 0;
-    unsigned    iterations        = 0; ///< CG iterations (1 for the direct solver)
   };
 
-  /// `direct`: MUMPS; otherwise CG with BoomerAMG.
+  /// Solved by MUMPS: a scalar Laplacian with about a quarter of the flow's
+  /// unknowns, but as anisotropic in a thin gap (CG with BoomerAMG took 35 s
+  /// at 2 um where MUMPS takes about one; docs/benchmarks.md).
   PotentialFlow solve_potential_flow(const dealii::Triangulation<3> &triangulation, const dealii::Mapping<3> &mapping,
-                                     const std::function<double(double, double)> &shape, bool direct, MPI_Comm comm);
+                                     const std::function<double(double, double)> &shape, MPI_Comm comm);
 } // namespace rectify::stokes

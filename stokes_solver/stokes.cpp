@@ -685,9 +685,9 @@ namespace rectify::stokes
           b.tolerance      = settings_.tolerance;
           b.max_iterations = settings_.max_iterations;
           b.verbose        = verbose_;
-          std::vector<BlockRhs> systems{{system_rhs_, solution_, settings_.tolerance}};
+          std::vector<BlockRhs> systems{{system_rhs_, solution_}};
           if (with_motion)
-            systems.push_back({motion_rhs_, motion_solution_, settings_.loading_tolerance});
+            systems.push_back({motion_rhs_, motion_solution_, settings_.loading_tolerance, "[flow] loading_tolerance"});
           result_.iterations += solve_block_system(system_matrix_.petsc_matrix(), preconditioner_matrix_.petsc_matrix(),
                                                    gap_schur_ ? gap_laplace_matrix_.petsc_matrix() : nullptr,
                                                    systems, velocity, pressure, b);
@@ -857,14 +857,10 @@ namespace rectify::stokes
                                    std::max(std::abs(L.swept_flow_m3_per_s), 1e-300);
       if (motion_->added_mass)
         {
-          // Direct always: a scalar Laplacian with a quarter of the flow's
-          // unknowns, but as anisotropic in a thin gap (CG with BoomerAMG
-          // took 35 s at 2 um where MUMPS takes about one).
-          const PotentialFlow pf = solve_potential_flow(*triangulation_, mapping_, motion_->shape, true, comm_);
+          const PotentialFlow pf = solve_potential_flow(*triangulation_, mapping_, motion_->shape, comm_);
           L.added_mass_kg          = rho_ * pf.energy_integral;
           L.added_mass_boundary_kg = rho_ * pf.boundary_integral;
           L.potential_dofs         = pf.n_dofs;
-          L.potential_iterations   = pf.iterations;
         }
       for (double v : {L.K_QQ_Pa_s_per_m3, L.K_Qv_Pa_s_per_m, L.K_vQ_Pa_s_per_m, L.K_vv_N_s_per_m, L.added_mass_kg})
         if (!std::isfinite(v))
@@ -1007,12 +1003,12 @@ namespace rectify::stokes
   }
 
   std::pair<double, double> added_mass(const mesher::TetMesh &mesh, const std::function<double(double, double)> &shape,
-                                       double density_kg_per_m3, bool direct)
+                                       double density_kg_per_m3)
   {
     Triangulation<3> triangulation;
     mesher::fill_triangulation(mesh, triangulation);
     const MappingFE<3>  mapping(FE_SimplexP<3>(1));
-    const PotentialFlow pf = solve_potential_flow(triangulation, mapping, shape, direct, MPI_COMM_SELF);
+    const PotentialFlow pf = solve_potential_flow(triangulation, mapping, shape, MPI_COMM_SELF);
     return {density_kg_per_m3 * pf.energy_integral, density_kg_per_m3 * pf.boundary_integral};
   }
 } // namespace rectify::stokes

@@ -77,7 +77,6 @@ namespace rectify::stokes
     double added_mass_kg  = 0;              ///< rho integral |grad phi|^2 of the potential flow, per unit tip velocity squared
     double added_mass_boundary_kg = 0;      ///< the same from rho integral phi dphi/dn over the reed (a check)
     std::size_t potential_dofs = 0;
-    unsigned    potential_iterations = 0;
     double      solve_time_s = 0; ///< solve (b), the forces and the potential flow
   };
 
@@ -130,5 +129,5 @@ namespace rectify::stokes
   /// velocity squared, and the boundary integral's value as a check
   /// ({energy form, boundary form}). One process.
   std::pair<double, double> added_mass(const mesher::TetMesh &mesh, const std::function<double(double, double)> &shape,
-                                       double density_kg_per_m3, bool direct = true);
+                                       double density_kg_per_m3);
 } // namespace rectify::stokes

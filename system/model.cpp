@@ -392,7 +392,10 @@ namespace rectify::system
     // (fluid loading "map"): the valve's drop is R (q - q_d), a pressure
     // source R q_d in the branch. (With a turbulent leak the source stands
     // in the shared drop as well: exact for the laminar parts.)
-    const double q_d1 = displaced_flow(0, y), q_d2 = displaced_flow(1, y);
+    f.loading             = {loading(0, y), loading(1, y)};
+    const auto   velocity = [&](std::size_t v) { return y[v == 0 ? state::outlet_reed_v : state::inlet_reed_v]; };
+    const double q_d1     = f.loading[0] ? f.loading[0]->A_modal * velocity(0) : 0.0;
+    const double q_d2     = f.loading[1] ? f.loading[1]->A_modal * velocity(1) : 0.0;
     const double s1 = f.R1 * q_d1, s2 = f.R2 * q_d2;
 
     // Each valve's branch, its line R_s in series: the flow for a drop dp
@@ -504,7 +507,7 @@ namespace rectify::system
         // difference rings as the tip-pinned reed.
         const double reaction = closed_[v] ? seat_reaction(force[v], y[ix], y[ix + 1], y[ix2], y[ix2 + 1]) : 0.0;
         ydot[ix] = y[ix + 1];
-        if (const auto l = loading(v, y))
+        if (const auto &l = f.loading[v])
           { // Lagrange with the mass M(x) = (m_r + m_a(x)) / gamma: M x'' + M'(x) x'^2 / 2 = F - (b_s + c(x) / gamma) x' - k x
             const double x = y[ix], u = y[ix + 1], g = loading_scale_[v];
             ydot[ix + 1] = (force[v] + reaction - (structural_damping_[v] + l->damping / g) * u -

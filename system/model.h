@@ -144,6 +144,8 @@ namespace rectify::system
     double q_accumulator;          ///< junction -> accumulator
     double q_low;                  ///< junction -> low side
     double outlet_force, inlet_force; ///< opening pressure force on each reed [N]: A dp
+    /// Each reed's fluid loading at its opening (fluid_loading "map", open reed).
+    std::array<std::optional<maps::LoadingMap::Value>, 2> loading;
   };
 
   class Model : public OdeSystem

@@ -424,6 +424,14 @@ namespace rectify::system
     apply_map_sets(f, p, true);
   }
 
+  void use_fluid_loading(SystemParameters &p, const CaseFile &f, const std::string &mode)
+  {
+    if (mode != "thesis" && mode != "map")
+      throw InputError("fluid loading '" + mode + "': expected thesis or map");
+    p.reed.fluid_loading = mode;
+    apply_map_sets(f, p, true);
+  }
+
   std::array<maps::MapSet, 2> load_valve_maps(const SystemParameters &p)
   {
     const auto from_map = [&]() {

@@ -231,6 +231,10 @@ namespace rectify::system
   /// pressure_area_m2): checks it against the case's [geometry], [fluid] and
   /// [reed_material] and takes k_r and m_r from it if it has a reed.
   void use_map_set(SystemParameters &parameters, const CaseFile &file, const std::string &dir);
+  /// Sets [reed] fluid_loading ("thesis" or "map", a command line's
+  /// --fluid-loading) and, since the reed's mass depends on it, takes the
+  /// mass from the case's map sets again.
+  void use_fluid_loading(SystemParameters &parameters, const CaseFile &file, const std::string &mode);
 
   /// The two valves' maps (0 outlet, 1 inlet): their map sets, or the R(x)
   /// map with the constant area A_r. InputError for a missing or bad file.
