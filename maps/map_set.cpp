@@ -210,7 +210,10 @@ namespace rectify::maps
         m["loading"] = {{"file", loading_file},
                         {"n_nodes", loading_->rows().size()},
                         {"referred_to", "the tip: the reed's shape normalised to a unit tip deflection"},
-                        {"outside_nodes", "held"}};
+                        {"below_first_node", "c and m_a: the first node's power law, rounded off to at most "
+                                             "2^q times their value there on the seat; A_m held "
+                                             "(maps/loading_map.h)"},
+                        {"above_last_node", "held"}};
         m["files"][loading_file] = {{"hash", file_hash(dir / loading_file)}};
       }
     write_json(dir / "manifest.json", m);
