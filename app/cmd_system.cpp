@@ -31,6 +31,8 @@ namespace rectify::app
       bool        fd_jacobian    = false;
       std::string map_set;
       std::string fluid_loading;
+      double      seat_film_m = std::nan("");
+      std::string film_suction_limit;
 
       void add_to(CLI::App &cmd)
       {
@@ -55,6 +57,13 @@ namespace rectify::app
                        "film, added mass and displaced flow from the map sets; docs/fluid-loading.md); default: "
                        "case [reed] fluid_loading")
           ->check(CLI::IsMember({"thesis", "map"}));
+        cmd.add_option("--seat-film-m", seat_film_m,
+                       "with the map's fluid loading: the thinnest film under a seated reed [m] (the seat's "
+                       "roughness; the loading is read at x + this); default: case [reed] seat_film_m, 0");
+        cmd.add_option("--film-suction-limit", film_suction_limit,
+                       "with the map's fluid loading: cavitation (the film's suction on a lifting reed stops at "
+                       "[reed] film_cavitation_pressure_Pa) or none; default: case [reed] film_suction_limit")
+          ->check(CLI::IsMember({"cavitation", "none"}));
       }
 
       /// Parameters with the command-line overrides applied.
@@ -65,6 +74,20 @@ namespace rectify::app
           system::use_fluid_loading(p, file, fluid_loading);
         if (!map_set.empty())
           system::use_map_set(p, file, map_set);
+        if (!std::isnan(seat_film_m) || !film_suction_limit.empty())
+          {
+            if (p.reed.fluid_loading != "map")
+              throw InputError("--seat-film-m and --film-suction-limit shape the map's squeeze film: give "
+                               "--fluid-loading map (or [reed] fluid_loading = \"map\") as well");
+            if (!std::isnan(seat_film_m))
+              {
+                if (!(seat_film_m >= 0 && seat_film_m <= 1e-3))
+                  throw InputError("--seat-film-m " + format_number(seat_film_m) + ": must be in [0, 1e-3] (m)");
+                p.reed.seat_film_m = seat_film_m;
+              }
+            if (!film_suction_limit.empty())
+              p.reed.film_suction_limit = film_suction_limit;
+          }
         if (!std::isnan(current_pp_A))
           p.drive.current_pp_A = current_pp_A;
         if (!std::isnan(current_bias_A))
@@ -109,8 +132,14 @@ namespace rectify::app
       char buf[96];
       std::snprintf(buf, sizeof(buf), "k_r %.6g N/m, m_r %.6g kg", p.reed.stiffness_N_per_m, p.reed.effective_mass_kg);
       return std::string(buf) + " (" + p.reed.source + "); fluid loading: " +
-             (p.reed.fluid_loading == "map" ? "squeeze film, added mass, displaced flow from the map sets" :
-                                              "the thesis's (damping ratio, eq. 3.21's mass)");
+             (p.reed.fluid_loading == "map" ?
+                "squeeze film, added mass, displaced flow from the map sets (seat film " +
+                  format_number(p.reed.seat_film_m) + " m, suction limit " +
+                  (p.reed.film_suction_limit == "cavitation" ?
+                     "cavitation at " + format_number(p.reed.film_cavitation_pressure_Pa) + " Pa abs" :
+                     std::string("none")) +
+                  ")" :
+                "the thesis's (damping ratio, eq. 3.21's mass)");
     }
 
     system::Drive make_drive(const system::SystemParameters &p, double frequency)
@@ -324,7 +353,8 @@ namespace rectify::app
       const std::size_t nf = s.frequencies_Hz.size();
       nlohmann::json    per_series = nlohmann::json::object();
       long              total_steps = 0;
-      std::size_t       n_unsettled = 0, n_periodic = 0;
+      std::size_t       n_unsettled = 0, n_periodic = 0, n_failed = 0;
+      nlohmann::json    failures = nlohmann::json::array();
       double            sum_cycles = 0, sum_wall = 0;
       for (std::size_t si = 0; si < names.size(); ++si)
         {
@@ -339,6 +369,12 @@ namespace rectify::app
               settled.push_back(pt.settled);
               stderrs.push_back(pt.metric_stderr);
               regimes.push_back(pt.regime);
+              if (pt.failed())
+                {
+                  ++n_failed;
+                  failures.push_back({{"series", pt.series}, {"frequency_Hz", pt.frequency_Hz}, {"why", pt.regime}});
+                  continue;
+                }
               n_periodic += pt.regime == "non-periodic" ? 0 : 1;
               total_steps += pt.steps;
               n_unsettled += pt.settled ? 0 : 1;
@@ -389,6 +425,8 @@ namespace rectify::app
         {"runs_resumed", r.n_resumed},
         {"runs_not_settled", n_unsettled},
         {"runs_periodic", n_periodic},
+        {"runs_failed", n_failed},
+        {"failures", failures},
         {"mean_cycles_per_run", sum_cycles / static_cast<double>(r.points.size())},
         {"cpu_time_per_cycle_s", sum_wall / sum_cycles},
         {"cvode_steps_total", total_steps},
@@ -399,13 +437,18 @@ namespace rectify::app
           {"mean_velocity_m_per_s", "eq. 5.2 over the measured cycles after a settled start-up"},
           {"wall_time_s", "per run, on one thread"},
           {"stderr", "standard error of the mean from 10 batch means: the sampling uncertainty of a non-periodic (fluttering) run"},
-          {"regime", "periodic, period-k or non-periodic, from the states at the ends of the last cycles"}}},
+          {"regime", "periodic, period-k or non-periodic, from the states at the ends of the last cycles; "
+                     "'failed: why' for a run the integrator could not finish (its numbers NaN; the sweep goes on, "
+                     "the next frequency of its chain starting from rest)"}}},
         {"parameters", p.to_json()},
         {"files", {"sweep.csv", "sweep-runs.csv", plotted ? "sweep.png" : "", plotted ? "sweep.svg" : ""}}};
       write_json(out / "summary.json", summary);
       std::printf("%zu runs (%zu resumed) in %.1f s; %zu periodic, %zu not settled; %.3g s CPU per cycle\n",
                   r.points.size(), r.n_resumed, r.wall_time_s, n_periodic, n_unsettled,
                   sum_wall / sum_cycles);
+      for (const auto &f : failures)
+        std::fprintf(stderr, "warning: %s at %s Hz: %s (NaN in sweep.csv)\n", f["series"].get<std::string>().c_str(),
+                     format_number(f["frequency_Hz"].get<double>()).c_str(), f["why"].get<std::string>().c_str());
       std::printf("wrote %s\n", (out / "summary.json").c_str());
     }
   } // namespace

@@ -241,6 +241,8 @@ namespace rectify::design
     if (with_loading)
       {
         std::vector<maps::LoadingMap::Row> rows;
+        const auto   shape     = mp.sampled_shape();
+        const double film_area = mesher::seat_film_modal_area_m2(mp.geometry, [&](double s) { return shape(s); });
         for (const auto &p : pts)
           {
             rows.push_back({p.opening_m, p.damping_fixed_dp_N_s_per_m, p.A_modal_m2, p.added_mass_kg,
@@ -249,7 +251,12 @@ namespace rectify::design
           }
         set.set_loading(maps::LoadingMap(std::move(rows), (out / "loading.csv").string(),
                                          {{"source", "rectify design: two Stokes solves per opening on one matrix, "
-                                                     "and the potential flow"}}));
+                                                     "and the potential flow"},
+                                          {"film_modal_area_m2", film_area},
+                                          {"film_modal_area_meaning",
+                                           "the reed's shape (1 at the tip) integrated over its footprint less "
+                                           "the port: the seat film's suction limit per unit pressure "
+                                           "(docs/fluid-loading.md)"}}));
       }
 
     // Tables and plots beside the map set.

@@ -45,6 +45,13 @@ namespace rectify::maps
         a.push_back(r.A_modal_m2);
         lm.push_back(std::log(r.added_mass_kg));
       }
+    if (metadata_.is_object() && metadata_.contains("film_modal_area_m2"))
+      {
+        const auto &a = metadata_.at("film_modal_area_m2");
+        if (!a.is_number() || !(a.get<double>() > 0) || !std::isfinite(a.get<double>()))
+          throw InputError(where + ": meta film_modal_area_m2 = " + a.dump() + " must be a positive number");
+        film_area_ = a.get<double>();
+      }
     log_c_ = MonotoneCubic(lx, lc);
     a_     = MonotoneCubic(lx, a);
     log_m_ = MonotoneCubic(lx, lm);

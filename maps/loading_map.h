@@ -34,6 +34,7 @@
 
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -64,6 +65,13 @@ namespace rectify::maps
 
     Value evaluate(double x) const;
 
+    /// The seat film's modal area (the reed's shape integrated over its
+    /// footprint less the port; metadata key film_modal_area_m2, written by
+    /// `rectify design` since the film's suction limit): the film's largest
+    /// suction force on the tip is the pressure difference times this.
+    /// Empty for a table without it.
+    std::optional<double> film_modal_area_m2() const { return film_area_; }
+
     const std::vector<Row> &rows() const { return rows_; }
     const std::string      &name() const { return name_; }
 
@@ -71,6 +79,7 @@ namespace rectify::maps
     std::vector<Row> rows_;
     std::string      name_;
     nlohmann::json   metadata_;
+    std::optional<double> film_area_;
     MonotoneCubic    log_c_, a_, log_m_;
   };
 } // namespace rectify::maps

@@ -75,6 +75,28 @@ namespace rectify::mesher
     return SampledShape(reed_shape(), settings.station_spacing_m, {c - r, c + r});
   }
 
+  double seat_film_modal_area_m2(const ValveGeometry &g, const std::function<double(double)> &shape)
+  {
+    // Footprint: W times the integral of phi along the reed (Gauss, 2 points
+    // on 4000 panels: exact for the sampled shape's linear pieces up to the
+    // panels that hold a station). Port: s = c + r sin(theta), its chord
+    // 2 r cos(theta) (at most W), ds = r cos(theta) dtheta: smooth in theta.
+    const double L = g.reed_length_m, W = g.reed_width_m, c = g.port_center_x_m, r = 0.5 * g.port_diameter_m;
+    const int    n = 4000;
+    const double h = L / n, gp = 0.5 / std::sqrt(3.0);
+    double       footprint = 0;
+    for (int k = 0; k < n; ++k)
+      footprint += 0.5 * h * (shape((k + 0.5 - gp) * h) + shape((k + 0.5 + gp) * h));
+    double port = 0;
+    const double dt = M_PI / n;
+    for (int k = 0; k < n; ++k)
+      {
+        const double t = -0.5 * M_PI + (k + 0.5) * dt;
+        port += shape(c + r * std::sin(t)) * std::min(2 * r * std::cos(t), W) * r * std::cos(t) * dt;
+      }
+    return W * footprint - port;
+  }
+
   double parse_length(const std::string &text, const std::string &what)
   {
     const char *begin = text.c_str();

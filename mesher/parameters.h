@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include <filesystem>
+#include <functional>
 #include <string>
 
 #include "common/case_file.h"
@@ -52,6 +53,14 @@ namespace rectify::mesher
     /// station_spacing_m apart, none grazing the port's edge.
     SampledShape sampled_shape() const;
   };
+
+  /// The seat film's modal area: the integral of the reed's shape phi (1 at
+  /// the tip) over the part of its footprint that lies on the seat, i.e. the
+  /// reed [0, L] x [-W/2, W/2] less the port. A film whose pressure is p
+  /// everywhere under the reed pushes on its tip-referred coordinate with
+  /// p times this (docs/fluid-loading.md: the cavitation limit of the film's
+  /// suction on a lifting reed).
+  double seat_film_modal_area_m2(const ValveGeometry &geometry, const std::function<double(double)> &shape);
 
   /// "100um", "1.21mm", "2e-6", "2e-6m" -> metres. Throws InputError naming
   /// `what` for anything else, a non-finite or a non-positive value.

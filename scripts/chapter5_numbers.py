@@ -4,7 +4,10 @@ scripts/reference.sh: for the model on the thesis's R(x) (RUN/), on the
 valve's own FE maps (RUN/fe-maps/) and on those maps with the reed's fluid
 loading (RUN/fe-loading/, docs/fluid-loading.md). Prints a Markdown table.
 
-Usage: python3 scripts/chapter5_numbers.py runs/reference
+Usage: python3 scripts/chapter5_numbers.py runs/reference [LABEL=DIR ...]
+(each LABEL=DIR adds a column for a chapter-5 set in DIR, such as the film
+variants of docs/fluid-loading.md; RUN alone: the thesis's, FE maps, and
+RUN/fe-loading if it exists)
 """
 import csv
 import math
@@ -32,7 +35,7 @@ def traces(run):
 def stored(run):
     t = table(run / 'no-flow/stored-pressure/sweep.csv')
     f, dyn = t['frequency_Hz'], t['dynamic_stored_pressure_Pa'] if 'dynamic_stored_pressure_Pa' in t else t[list(t)[1]]
-    low = [p for fi, p in zip(f, dyn) if fi <= 20]
+    low = [p for fi, p in zip(f, dyn) if fi <= 20 and not math.isnan(p)]  # NaN: a failed run
     level = sum(low) / len(low)
     half = next((fi for fi, p in zip(f, dyn) if fi > 20 and p < 0.5 * level), float('nan'))
     return level / PSI, half, dyn[-1] / PSI
@@ -45,8 +48,9 @@ def velocity(run):
     out = {}
     for name in cols[1:]:
         v = t[name]
+        v = [-math.inf if math.isnan(x) else x for x in v]  # NaN: a failed run
         i = max(range(len(v)), key=lambda k: v[k])
-        first_rev = next((f[k] for k in range(len(v)) if f[k] > 100 and v[k] < 0), float('nan'))
+        first_rev = next((f[k] for k in range(len(v)) if f[k] > 100 and -math.inf < v[k] < 0), float('nan'))
         below = [k for k in range(len(v)) if not f[k] >= first_rev]
         j = max(below, key=lambda k: v[k])
         out[name] = (v[i], f[i], first_rev, v[j], f[j])
@@ -79,6 +83,11 @@ def main():
     variants = [('thesis R(x), A_r', run), ('FE maps', run / 'fe-maps')]
     if (run / 'fe-loading').is_dir():
         variants.append(('FE maps + fluid loading', run / 'fe-loading'))
+    for extra in sys.argv[2:]:
+        label, _, d = extra.partition('=')
+        if not d:
+            sys.exit(f'chapter5_numbers.py: {extra!r}: expected LABEL=DIR')
+        variants.append((label, Path(d)))
     def results(d):
         out = {}
         for key, fn in (('traces', traces), ('stored', stored), ('velocity', velocity), ('phase', phase)):

@@ -154,6 +154,9 @@ namespace rectify::system
     loading_ = parameters.reed.fluid_loading == "map" && valves_ == ValveModel::dynamic;
     if (!loading_)
       return;
+    seat_film_           = parameters.reed.seat_film_m;
+    suction_limit_       = parameters.reed.film_suction_limit == "cavitation";
+    cavitation_pressure_ = parameters.reed.film_cavitation_pressure_Pa;
     if (c_.k_r2 > 0)
       throw InputError("[reed] fluid_loading = \"map\" takes the reed's first mode only; second_mode_frequency_Hz = " +
                        format_number(parameters.reed.second_mode_frequency_Hz) + " is not supported with it");
@@ -177,14 +180,45 @@ namespace rectify::system
           throw InputError("map set '" + maps_[v].name() + "': the loading's modal area over A_eff is " +
                            format_number(loading_scale_[v]) + " on average (expected in (0, 1.5])");
         structural_damping_[v] = c_.reed.damping / std::sqrt(loading_scale_[v]); // 2 zeta sqrt(k m / gamma)
+        if (suction_limit_)
+          {
+            const auto area = maps_[v].loading()->film_modal_area_m2();
+            if (!area)
+              throw InputError("[reed] film_suction_limit = \"cavitation\": the " +
+                               std::string(v == 0 ? "outlet" : "inlet") + " valve's map set '" + maps_[v].name() +
+                               "' has no film modal area in loading.csv (made by an older rectify): run `rectify "
+                               "design` again, or set film_suction_limit = \"none\"");
+            film_area_[v] = *area;
+          }
       }
+  }
+
+  double Model::film_suction_cap(std::size_t v, std::span<const double> y, const Flows &f) const
+  {
+    if (!loading_ || !suction_limit_)
+      return std::numeric_limits<double>::infinity();
+    // The film opens into the pocket: the outlet valve's is the pressure
+    // behind it, the inlet valve's the chamber. Absolute: the states are
+    // relative to the bias pressure, taken as absolute (as the free air's
+    // gas law takes it, common/fluid.h).
+    const double p_pocket = (v == 0 ? f.p_outlet : y[state::chamber_p]) + c_.p_bias;
+    return system::film_suction_cap(p_pocket, cavitation_pressure_, film_area_[v]) / loading_scale_[v];
+  }
+
+  double Model::film_force(std::size_t v, std::span<const double> y, const Flows &f) const
+  {
+    const auto &l = f.loading[v];
+    if (!l)
+      return 0.0;
+    const double u = y[v == 0 ? state::outlet_reed_v : state::inlet_reed_v];
+    return system::film_force(l->damping / loading_scale_[v], u, film_suction_cap(v, y, f));
   }
 
   std::optional<maps::LoadingMap::Value> Model::loading(std::size_t v, std::span<const double> y) const
   {
     if (!loading_ || closed_[v])
       return std::nullopt;
-    return maps_[v].loading()->evaluate(opening(v, y));
+    return maps_[v].loading()->evaluate(opening(v, y) + seat_film_);
   }
 
   double Model::displaced_flow(std::size_t v, std::span<const double> y) const
@@ -508,9 +542,10 @@ namespace rectify::system
         const double reaction = closed_[v] ? seat_reaction(force[v], y[ix], y[ix + 1], y[ix2], y[ix2 + 1]) : 0.0;
         ydot[ix] = y[ix + 1];
         if (const auto &l = f.loading[v])
-          { // Lagrange with the mass M(x) = (m_r + m_a(x)) / gamma: M x'' + M'(x) x'^2 / 2 = F - (b_s + c(x) / gamma) x' - k x
+          { // Lagrange with the mass M(x) = (m_r + m_a(x)) / gamma: M x'' + M'(x) x'^2 / 2 = F - b_s x' - F_film - k x,
+            // F_film = c(x) x' / gamma, its suction limited (film_force)
             const double x = y[ix], u = y[ix + 1], g = loading_scale_[v];
-            ydot[ix + 1] = (force[v] + reaction - (structural_damping_[v] + l->damping / g) * u -
+            ydot[ix + 1] = (force[v] + reaction - structural_damping_[v] * u - film_force(v, y, f) -
                             0.5 * l->added_mass_slope / g * u * u - c_.reed.stiffness * x) /
                            ((c_.reed.mass + l->added_mass) / g);
           }

@@ -181,6 +181,14 @@ namespace rectify::system
     double              loading_scale(std::size_t v) const { return loading_scale_[v]; }
     /// The reed's structural damping b_s with the loading (its mass m_r / gamma).
     double              structural_damping(std::size_t v) const { return structural_damping_[v]; }
+    /// The squeeze film's force against open reed `v`'s motion in the
+    /// model's coordinate (c(x) v / gamma, its suction on a lifting reed
+    /// limited by cavitation in the pocket: system/reed.h film_force); 0
+    /// without loading. `f`: flows(y) (the pocket's pressure).
+    double              film_force(std::size_t v, std::span<const double> y, const Flows &f) const;
+    /// The film's suction limit on reed `v` at state y (model coordinate;
+    /// infinity with film_suction_limit = "none" or without loading).
+    double              film_suction_cap(std::size_t v, std::span<const double> y, const Flows &f) const;
     /// The flow reed `v` draws through its valve by moving, A_m(x) v (0 without loading).
     double              displaced_flow(std::size_t v, std::span<const double> y) const;
     /// Coil current: the drive itself, V/R, or the coil state (coil dynamics).
@@ -234,5 +242,9 @@ namespace rectify::system
     bool                  loading_   = false; ///< [reed] fluid_loading = "map" (dynamic valves)
     std::array<double, 2> loading_scale_{1.0, 1.0};      ///< gamma = mean A_m / A_eff of each valve's map
     std::array<double, 2> structural_damping_{0.0, 0.0}; ///< b_s with the mass m_r / gamma
+    double                seat_film_ = 0.0;                ///< [reed] seat_film_m: the loading is read at x + this
+    bool                  suction_limit_ = false;          ///< [reed] film_suction_limit = "cavitation"
+    double                cavitation_pressure_ = 0.0;      ///< absolute [Pa]
+    std::array<double, 2> film_area_{0.0, 0.0};            ///< each map's film modal area [m^2], tip-referred
   };
 } // namespace rectify::system

@@ -121,6 +121,14 @@ namespace rectify::system
     if (p.fluid_loading == "thesis" && f.has(t, "structural_damping_ratio"))
       throw InputError(f.where(t, "structural_damping_ratio") +
                        ": read only with fluid_loading = \"map\" (the thesis's damping_ratio holds all of it)");
+    p.seat_film_m = f.real(t, "seat_film_m", p.seat_film_m, Bounds::closed(0.0, 1e-3));
+    p.film_suction_limit = f.text(t, "film_suction_limit", p.film_suction_limit, {"cavitation", "none"});
+    p.film_cavitation_pressure_Pa =
+      f.real(t, "film_cavitation_pressure_Pa", p.film_cavitation_pressure_Pa, Bounds::closed(0.0, 1e8));
+    for (const char *key : {"seat_film_m", "film_suction_limit", "film_cavitation_pressure_Pa"})
+      if (p.fluid_loading == "thesis" && f.has(t, key))
+        throw InputError(f.where(t, key) + ": read only with fluid_loading = \"map\" (the squeeze film comes "
+                         "from the map sets' loading tables)");
     if (p.second_mode_frequency_Hz > 0.0 &&
         p.second_mode_frequency_Hz <= p.natural_frequency_Hz())
       throw InputError(f.where(t, "second_mode_frequency_Hz") + " = " +
@@ -485,6 +493,9 @@ namespace rectify::system
         {"second_mode_frequency_Hz", reed.second_mode_frequency_Hz},
         {"fluid_loading", reed.fluid_loading},
         {"structural_damping_ratio", reed.structural_damping_ratio},
+        {"seat_film_m", reed.seat_film_m},
+        {"film_suction_limit", reed.film_suction_limit},
+        {"film_cavitation_pressure_Pa", reed.film_cavitation_pressure_Pa},
         {"source", reed.source}}},
       {"valves",
        {{"outlet_map_set", valves.map_set[0]},

@@ -75,6 +75,17 @@ namespace rectify::system
     /// through its valve.
     std::string fluid_loading = "thesis";
     double      structural_damping_ratio = 0.0; ///< with fluid_loading = "map"
+    /// What ends the squeeze film at the seat (fluid_loading = "map" only;
+    /// docs/fluid-loading.md). seat_film_m: the film never gets thinner
+    /// than this (the seat's roughness and flatness: a reed "on its seat"
+    /// still stands this far off it); the loading is read at x + h0.
+    double      seat_film_m = 0.0;
+    /// "cavitation": the film's suction on a lifting reed cannot pull its
+    /// pressure below film_cavitation_pressure_Pa (absolute): the suction
+    /// force is at most (p_pocket - p_cav) times the map set's film modal
+    /// area; "none": unlimited (the quasi-static Stokes film as computed).
+    std::string film_suction_limit = "cavitation";
+    double      film_cavitation_pressure_Pa = 1.0e5; ///< absolute: gas leaves oil saturated at 1 atm
     /// Reads [reed]. With `properties_map` set, k_r and m_r are interpolated
     /// (linearly in thickness) from that map at `properties_thickness_m`,
     /// the mass column chosen by `properties_mass`; giving them in the case

@@ -9,6 +9,8 @@
 #pragma once
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 
 namespace rectify::system
 {
@@ -30,6 +32,30 @@ namespace rectify::system
   inline double reed_acceleration(const ReedConstants &c, double x, double v, double force)
   {
     return (force - c.damping * v - c.stiffness * x) / c.mass;
+  }
+
+  /// The squeeze film's force against a reed moving at v with damping c:
+  /// c v while it closes (the film's pressure rises: no limit); while it
+  /// opens, the film's suction is at most `cap` (cavitation: the film cannot
+  /// pull its pressure below the cavitation pressure; docs/fluid-loading.md),
+  /// smoothly: cap tanh(c v / cap), which has the value, slope and curvature
+  /// of c v at v = 0. cap = infinity: no limit; cap = 0: no suction.
+  inline double film_force(double c, double v, double cap)
+  {
+    if (v <= 0.0 || !(cap < std::numeric_limits<double>::infinity()))
+      return c * v;
+    return cap > 0.0 ? cap * std::tanh(c * v / cap) : 0.0;
+  }
+
+  /// The film's suction limit for a pocket at absolute pressure p_pocket,
+  /// cavitation at p_cav, film modal area A: (p_pocket - p_cav) A, its
+  /// difference rounded off over 10 kPa near 0 (softplus) so that the force
+  /// stays smooth where the pocket's pressure nears the cavitation pressure.
+  inline double film_suction_cap(double p_pocket, double p_cav, double area)
+  {
+    constexpr double w = 1e4;
+    const double     d = (p_pocket - p_cav) / w;
+    return area * w * (d > 30 ? d : std::log1p(std::exp(d)));
   }
 
   /// A reed lifts off to x = reed_seat_tolerance (1e-13 m, far below any

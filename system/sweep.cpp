@@ -115,6 +115,18 @@ namespace rectify::system
       return true;
     }
 
+    /// A run the integrator could not finish: its numbers NaN, why in the
+    /// regime column (commas and line breaks replaced: one CSV cell).
+    SweepPoint failed_point(const std::string &series, double frequency, const std::string &why)
+    {
+      std::string text = "failed: " + why;
+      for (char &ch : text)
+        if (ch == ',' || ch == '\n' || ch == '\r')
+          ch = ';';
+      const double nan = std::numeric_limits<double>::quiet_NaN();
+      return {series, frequency, nan, nan, false, nan, text, 0, 0, 0.0, nan, 0, 0, 0, 0, 1};
+    }
+
     std::string key(const std::string &series, double f)
     {
       char buf[64];
@@ -323,14 +335,36 @@ namespace rectify::system
       1u, std::min<unsigned>(options.jobs ? options.jobs : std::thread::hardware_concurrency(),
                              static_cast<unsigned>(chains.size())));
 
-    // One run, checkpointed; returns its end state (a chain's next start).
-    auto run_point = [&](const SweepSeries &series, double frequency, const StartState *start) {
+    // One run, checkpointed; returns its end state (a chain's next start),
+    // none if the integrator failed: then the point is recorded as failed
+    // (regime "failed: <why>", its numbers NaN) and the sweep goes on.
+    auto run_point = [&](const SweepSeries &series, double frequency,
+                         const StartState *start) -> std::optional<StartState> {
       SystemParameters p = parameters;
       p.reed.stiffness_N_per_m *= series.stiffness_factor;
       p.reed.effective_mass_kg *= series.mass_factor;
       Model model(p, load_valve_maps(p), series.valves, options.scenario,
                   Drive::sine(frequency, options.current_pp_A, options.current_bias_A));
-      RunResult r = run(model, options.run, start);
+      RunResult r;
+      try
+        {
+          r = run(model, options.run, start);
+        }
+      catch (const InputError &)
+        {
+          throw; // the case's fault: every point would fail
+        }
+      catch (const std::runtime_error &e)
+        {
+          SweepPoint pt = failed_point(series.name, frequency, e.what());
+          checkpoint.append(to_csv_row(pt));
+          {
+            std::lock_guard<std::mutex> lock(mutex);
+            done[key(pt.series, pt.frequency_Hz)] = pt;
+          }
+          progress.step(series.name + " " + format_number(frequency) + " Hz: " + pt.regime);
+          return std::nullopt;
+        }
       SweepPoint pt{series.name,
                     frequency,
                     r.stored_pressure_Pa,
@@ -395,7 +429,7 @@ namespace rectify::system
                         finished = it->second;
                       }
                   }
-                  StartState end;
+                  std::optional<StartState> end;
                   if (finished)
                     end = std::move(*finished);
                   else if (previous.empty())
@@ -405,7 +439,12 @@ namespace rectify::system
                       const StartState start = predicted_start(previous, f, options.scenario);
                       end                    = run_point(chain.series, f, &start);
                     }
-                  previous.emplace_back(f, std::move(end));
+                  if (!end)
+                    { // failed: the next frequency starts from rest
+                      previous.clear();
+                      continue;
+                    }
+                  previous.emplace_back(f, std::move(*end));
                   if (previous.size() > 2)
                     previous.erase(previous.begin());
                 }

@@ -48,7 +48,8 @@ namespace rectify::system
     double      frequency_Hz, stored_pressure_Pa, mean_velocity_m_per_s;
     bool        settled;
     double      metric_stderr; ///< standard error of the metric's mean (batch means)
-    std::string regime;        ///< periodic, period-k, non-periodic
+    std::string regime;        ///< periodic, period-k, non-periodic; "failed: <why>" (numbers NaN)
+    bool        failed() const { return regime.rfind("failed", 0) == 0; }
     std::size_t startup_cycles, measured_cycles;
     double      wall_time_s, volume_balance_rel_error;
     long        steps, rhs_evaluations, jacobian_evaluations, events;

@@ -101,6 +101,14 @@ TEST(Design, MapSetInterpolatesExtraSolvesTwoProcessesAgreeAndItResumes)
           EXPECT_LT(rows[i].added_mass_kg, rows[i - 1].added_mass_kg) << i; // it rises toward the seat
         }
     }
+  // The seat film's modal area (the suction limit's): the FE shape integrated
+  // over the reed's footprint less the port (the reference geometry: 6.1 x
+  // 5.08 mm less a 3.175 mm port), the shape's mean there about 0.4 (the
+  // beam shape's: 0.41, tests/test_mesher.cpp).
+  ASSERT_TRUE(set.loading()->film_modal_area_m2());
+  const double land = 6.1e-3 * 5.08e-3 - M_PI * 0.25 * 3.175e-3 * 3.175e-3;
+  EXPECT_GT(*set.loading()->film_modal_area_m2(), 0.3 * land);
+  EXPECT_LT(*set.loading()->film_modal_area_m2(), 0.5 * land);
   const auto l10 = set.loading()->evaluate(10e-6), l40 = set.loading()->evaluate(40e-6);
   EXPECT_NEAR(std::log(l10.damping / l40.damping) / std::log(4.0), 3.0, 0.15);
   EXPECT_NEAR(std::log(l10.added_mass / l40.added_mass) / std::log(4.0), 1.0, 0.15);

@@ -14,6 +14,7 @@
 #include "common/io.h"
 #include "mesher/bulk_tetgen.h"
 #include "mesher/mesher.h"
+#include "mesher/parameters.h"
 #include "mesher/writers.h"
 #include "tests/cli_helpers.h"
 
@@ -239,6 +240,35 @@ TEST(Mesher, ReedShapes)
   const auto table = ReedShape::table({0, 3e-3, 6.1e-3}, {0, 0.5e-6, 2e-6}, 6.1e-3, "t.csv");
   EXPECT_DOUBLE_EQ(table(6.1e-3), 1.0);
   EXPECT_DOUBLE_EQ(table(3e-3), 0.25);
+}
+
+// The seat film's modal area, the reed's shape integrated over its footprint
+// less the port: for a rigid reed (phi = 1) it is the footprint's area less
+// the port's, L W - pi r^2; for the beam shape the footprint's part is
+// W (a^2 / (4 (3L - a)) 3 + (3L^2/2 - a L - a^2/2) / (3L - a)) (the
+// cantilever's phi integrated in closed form) and the port's part is summed
+// here on a fine polar grid of the port's disc (midpoint, 1e6 cells).
+TEST(Mesher, SeatFilmModalArea)
+{
+  ValveGeometry g;
+  const double  L = g.reed_length_m, W = g.reed_width_m, a = g.port_center_x_m, r = 0.5 * g.port_diameter_m;
+  EXPECT_NEAR(mesher::seat_film_modal_area_m2(g, [](double) { return 1.0; }), L * W - M_PI * r * r,
+              1e-7 * L * W);
+  const auto beam = mesher::ReedShape::beam(L, a);
+  const double footprint =
+    W * (0.75 * a * a / (3 * L - a) + (1.5 * L * L - a * L - 0.5 * a * a) / (3 * L - a));
+  double    port = 0; // polar midpoint rule about the port's centre
+  const int n    = 1000;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+      {
+        const double rho = (i + 0.5) * r / n, theta = (j + 0.5) * 2 * M_PI / n;
+        port += beam(a + rho * std::cos(theta)) * rho * (r / n) * (2 * M_PI / n);
+      }
+  const double area = mesher::seat_film_modal_area_m2(g, [&](double s) { return beam(s); });
+  std::printf("seat film modal area, beam shape: %.6g mm^2 (footprint %.6g, port %.6g)\n", area * 1e6,
+              footprint * 1e6, port * 1e6);
+  EXPECT_NEAR(area, footprint - port, 1e-6 * footprint);
 }
 
 TEST(Mesher, MeshesTheStiffnessSolversShapeTable)
