@@ -165,6 +165,10 @@ namespace rectify::app
         p.drive.waveform = std::filesystem::absolute(o.current_csv).string();
       const auto scenario = system::parse_scenario(o.scenario);
       const auto valves   = o.ideal_valves ? system::ValveModel::ideal : system::ValveModel::dynamic;
+      system::Model model(p, system::load_valve_maps(p), valves, scenario, make_drive(p, o.frequency_Hz));
+      const std::string jacobian = p.solver.jacobian == "analytic" && model.needs_difference_jacobian() ?
+                                     "finite-difference (the model's optional terms in use need it)" :
+                                     p.solver.jacobian;
       echo_settings("simulate", {{"case", o.case_path},
                         {"scenario", o.scenario},
                         {"valves", system::to_string(valves)},
@@ -177,14 +181,13 @@ namespace rectify::app
                         {"valve maps", valve_maps_text(p)},
                         {"reed", reed_text(p)},
                         {"rtol", format_number(p.solver.relative_tolerance)},
-                        {"jacobian", p.solver.jacobian},
+                        {"jacobian", jacobian},
                         {"out", o.out_dir}});
       if (o.cycles == 0)
         throw InputError("--cycles 0: must be >= 1");
       const std::filesystem::path out(o.out_dir);
       OutputLock                  lock; // a folder in use is refused now, not after the run
       lock.acquire_if_exists(out);
-      system::Model model(p, system::load_valve_maps(p), valves, scenario, make_drive(p, o.frequency_Hz));
       auto          run = o.run_options(p);
       run.n_cycles      = o.cycles;
       run.record        = true;
