@@ -325,7 +325,8 @@ namespace rectify::diagnosis
     y[state::chamber_p] = p_ch;
     y[state::high_p]    = p_out;
     if (state::line_node_p < n && c.L_line > 0)
-      y[state::line_node_p] = p_out;
+      for (std::size_t k = 0; k < c.n_line_segments; ++k)
+        y[state::line_segment_node(k)] = p_out;
     // the rod: measured, or in its static balance F = k_eff x_p + A_pi p_ch
     const double current = drive_at_0 * (model.drive().is_voltage() ? 1.0 / c.R_coil : 1.0);
     const double x_p     = given(r.strain) ? r.strain * rod_length_m :

@@ -5,6 +5,7 @@
 #include <nvector/nvector_serial.h>
 #include <stdexcept>
 #include <sundials/sundials_context.h>
+#include <sunlinsol/sunlinsol_dense.h>
 #include <sunmatrix/sunmatrix_dense.h>
 
 namespace rectify::system
@@ -200,7 +201,9 @@ namespace rectify::system
     check(CVodeSetUserData(m.cvode, &system), "CVodeSetUserData");
     check(CVodeSVtolerances(m.cvode, options.relative_tolerance, m.atol), "CVodeSVtolerances");
     m.matrix = SUNDenseMatrix(n, n, m.context);
-    m.solver = make_eigen_dense_solver(m.context, n);
+    // Up to 32 states (every model but a finely segmented outlet line) the
+    // fixed-capacity Eigen LU; above, SUNDIALS's own dense one.
+    m.solver = n <= 32 ? make_eigen_dense_solver(m.context, n) : SUNLinSol_Dense(m.y, m.matrix, m.context);
     if (!m.matrix || !m.solver)
       throw std::runtime_error("CVODE: cannot allocate the dense linear solver");
     check(CVodeSetLinearSolver(m.cvode, m.solver, m.matrix), "CVodeSetLinearSolver");

@@ -1,5 +1,6 @@
 #include "system/model.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "common/case_file.h"
@@ -97,7 +98,8 @@ namespace rectify::system
     // about 0.3 at 100 Hz for this oil), so L = 4/3 rho l / A and the line
     // is l = 3 L A / (4 rho) long; its Poiseuille resistance joins R3, its
     // oil's compliance A l / beta is split between its two ends (a lumped
-    // pi section: valid while l is well below a quarter wavelength at the
+    // pi section, or [lines] outlet_line_segments of them in a chain; one is
+    // valid while l is well below a quarter wavelength at the
     // harmonics that matter, about 0.4 m at 500 Hz).
     if (L_line > 0)
       {
@@ -105,10 +107,15 @@ namespace rectify::system
         const double l = 3.0 * L_line * A / (4.0 * p.fluid.density_kg_per_m3);
         added_line_length = l;
         R3 += 128.0 * p.fluid.viscosity_Pa_s * l / (M_PI * d * d * d * d);
-        C_node += 0.5 * A * l / beta_eff;
-        C_h += 0.5 * A * l / beta_eff;
-        V_node += 0.5 * A * l;
-        V_h += 0.5 * A * l;
+        // n pi sections: each segment's oil split between its two ends
+        n_line_segments = static_cast<std::size_t>(p.lines.outlet_line_segments);
+        const double n  = static_cast<double>(n_line_segments);
+        C_node += 0.5 * A * l / beta_eff / n;
+        C_h += 0.5 * A * l / beta_eff / n;
+        V_node += 0.5 * A * l / n;
+        V_h += 0.5 * A * l / n;
+        C_line_node = A * l / beta_eff / n;
+        V_line_node = A * l / n;
       }
     coil_dynamics  = p.drive.coil_dynamics == "on";
     R_coil         = p.transducer.coil_resistance_ohm;
@@ -284,6 +291,19 @@ namespace rectify::system
     return c_.coil_dynamics ? y[state::coil_current] : drive_.value(t) / c_.R_coil;
   }
 
+  double Model::line_stored_volume(std::span<const double> y) const
+  {
+    if (c_.L_line == 0.0 || y.size() <= state::line_node_p)
+      return 0.0;
+    double v = stored_volume(3, y[state::line_node_p]);
+    for (std::size_t k = 1; k < c_.n_line_segments; ++k)
+      {
+        const double p = y[state::line_segment_node(k)];
+        v += c_.C_line_node * p + c_.V_line_node * c_.fluid.free_air_volume_change_per_volume(p);
+      }
+    return v;
+  }
+
   double Model::stored_volume(int node, double p) const
   {
     if (node == 3) // the node between the outlet valve and an inertial line
@@ -383,6 +403,11 @@ namespace rectify::system
     s[state::outlet_reed2_v] = s[state::inlet_reed2_v] = v;
     s[state::line_node_p]    = p;
     s.resize(n_states());
+    for (std::size_t k = 1; k < c_.n_line_segments && s.size() > state::count; ++k)
+      {
+        s[state::line_segment_flow(k)] = c_.A_pi * v;
+        s[state::line_segment_node(k)] = p;
+      }
     return s;
   }
 
@@ -446,7 +471,7 @@ namespace rectify::system
     if (c_.L_line > 0) // valve into the node, line out of it
       {
         f.q_outlet = outlet_branch(0.0, p_ch - y[state::line_node_p]);
-        f.q_line   = y[state::line_flow];
+        f.q_line   = y[state::line_segment_flow(c_.n_line_segments - 1)]; // into the high side
       }
     else
       f.q_outlet = f.q_line = outlet_branch(c_.R3, p_ch - p_h);
@@ -574,11 +599,25 @@ namespace rectify::system
       return;
     // Outlet-line inertance: L q_line' = p_node - p_h - R3 q_line, the node
     // between valve and line filled by the valve: C_node p_node' = q_outlet - q_line.
-    ydot[line_flow]   = c_.L_line > 0 ? (y[line_node_p] - y[high_p] - c_.R3 * f.q_line) / c_.L_line : 0.0;
-    ydot[line_node_p] = c_.L_line > 0 ? (f.q_outlet - f.q_line) /
-                                          (c_.C_node + c_.V_node * c_.fluid.free_air_compliance_per_volume(
-                                                                     y[line_node_p])) :
-                                        0.0;
+    // With n segments: segment k (L / n, R3 / n) from node k to node k + 1
+    // (node n: the high side), node k filled by segment k - 1 (node 0: by the valve).
+    ydot[line_flow] = ydot[line_node_p] = 0.0;
+    if (c_.L_line > 0)
+      {
+        const std::size_t n  = c_.n_line_segments;
+        const double      nn = static_cast<double>(n);
+        for (std::size_t k = 0; k < n; ++k)
+          {
+            const std::size_t iq = line_segment_flow(k), ip = line_segment_node(k);
+            const double p_next  = k + 1 < n ? y[line_segment_node(k + 1)] : y[high_p];
+            ydot[iq]             = (y[ip] - p_next - c_.R3 / nn * y[iq]) / (c_.L_line / nn);
+            const double q_in    = k == 0 ? f.q_outlet : y[line_segment_flow(k - 1)];
+            const double C       = k == 0 ? c_.C_node + c_.V_node * c_.fluid.free_air_compliance_per_volume(y[ip]) :
+                                            c_.C_line_node +
+                                        c_.V_line_node * c_.fluid.free_air_compliance_per_volume(y[ip]);
+            ydot[ip] = (q_in - y[iq]) / C;
+          }
+      }
     ydot[coil_current] = drive_.is_voltage() && c_.coil_dynamics ?
                            (drive_.value(t) - c_.R_coil * y[coil_current]) / c_.L_coil :
                            0.0;

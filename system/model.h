@@ -94,6 +94,11 @@ namespace rectify::system
     /// States of the thesis model alone: a model with no effect on has only
     /// these (the extra states would dilute CVODE's error norm).
     inline constexpr std::size_t thesis_count = outlet_pressure_integral + 1;
+    /// An inertial outlet line of n segments ([lines] outlet_line_segments):
+    /// segment k's flow and the pressure at its upstream node (node 0: between
+    /// the valve and the line); segments 1.. follow the fixed states.
+    inline std::size_t line_segment_flow(std::size_t k) { return k == 0 ? line_flow : count + 2 * (k - 1); }
+    inline std::size_t line_segment_node(std::size_t k) { return k == 0 ? line_node_p : count + 2 * (k - 1) + 1; }
   } // namespace state
 
   /// Model constants derived from the parameters (eqs. 3.2-3.5, 3.28, 3.29,
@@ -122,6 +127,8 @@ namespace rectify::system
     double C_node;                 ///< oil between the outlet valve and the line (with L_line)
     double V_node;                 ///< its volume (a tenth of the high side's, taken from V_h)
     double added_line_length = 0;  ///< the line whose inertance L_line is (its R and C are in R3, C_node, C_h)
+    std::size_t n_line_segments = 1; ///< the inertial line's pi sections (L_line / n and R3 / n each)
+    double C_line_node = 0, V_line_node = 0; ///< each node between two segments: a segment's oil
     bool   coil_dynamics;          ///< integrate the coil current (voltage drive)
     double R_coil, L_coil;
     double F_coulomb, v_friction;  ///< output-piston friction F_c tanh(v / v_s)
@@ -162,7 +169,7 @@ namespace rectify::system
 
     std::size_t n_states() const override
     {
-      return needs_difference_jacobian() ? state::count : state::thesis_count;
+      return needs_difference_jacobian() ? state::count + 2 * (c_.n_line_segments - 1) : state::thesis_count;
     }
     void        rhs(double t, std::span<const double> y, std::span<double> ydot) const override;
     void        jacobian(double t, std::span<const double> y, DenseView J) const override;
@@ -193,6 +200,9 @@ namespace rectify::system
     double              displaced_flow(std::size_t v, std::span<const double> y) const;
     /// Coil current: the drive itself, V/R, or the coil state (coil dynamics).
     double              current_A(double t, std::span<const double> y) const;
+    /// Oil (and free air) stored in the inertial outlet line's nodes at state
+    /// y, relative to the bias state (0 without the line).
+    double              line_stored_volume(std::span<const double> y) const;
     /// Oil (and free air) volume stored at gauge pressure p on node 0 chamber,
     /// 1 high side, 2 low side, 3 the node between outlet valve and an inertial
     /// line, relative to the bias state: the integral of

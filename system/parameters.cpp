@@ -190,6 +190,7 @@ namespace rectify::system
     p.length_m   = f.real(t, "length_m", p.length_m, positive);
     p.outlet_inertance_Pa_s2_per_m3 =
       f.real(t, "outlet_inertance_Pa_s2_per_m3", p.outlet_inertance_Pa_s2_per_m3, non_negative);
+    p.outlet_line_segments = f.integer(t, "outlet_line_segments", p.outlet_line_segments, 1, 64);
     return p;
   }
 
@@ -511,7 +512,8 @@ namespace rectify::system
       {"lines",
        {{"diameter_m", lines.diameter_m},
         {"length_m", lines.length_m},
-        {"outlet_inertance_Pa_s2_per_m3", lines.outlet_inertance_Pa_s2_per_m3}}},
+        {"outlet_inertance_Pa_s2_per_m3", lines.outlet_inertance_Pa_s2_per_m3},
+        {"outlet_line_segments", lines.outlet_line_segments}}},
       {"cylinder",
        {{"piston_area_m2", cylinder.piston_area_m2},
         {"wetted_length_m", cylinder.wetted_length_m},

@@ -360,7 +360,7 @@ namespace rectify::system
     };
     const double scale = std::max({std::abs(dy(outlet_volume)), std::abs(dy(inlet_volume)),
                                    c.A_pi * std::abs(y[piston_x] - y0[piston_x]), c.A_pi * 1e-9});
-    const double node_volume = y.size() > line_node_p ? dstored(3, line_node_p) : 0.0;
+    const double node_volume = model.line_stored_volume(y) - model.line_stored_volume(y0);
     const double e_out = dy(outlet_volume) - (dstored(1, high_p) + node_volume + c.A_po * dy(actuator_x));
     const double e_in  = dy(inlet_volume) -
                         (-c.C_acc * dy(accumulator_p) - dstored(2, low_p) + c.A_po * dy(actuator_x));

@@ -3,6 +3,8 @@
 
 #include "common/case_file.h"
 #include "maps/resistance_map.h"
+#include "system/integrator.h"
+#include "system/model.h"
 #include "system/parameters.h"
 #include "system/simulation.h"
 
@@ -25,6 +27,20 @@ namespace rectify::test_support
     o.n_cycles                  = cycles;
     o.relative_tolerance        = p.solver.relative_tolerance;
     o.absolute_tolerance_factor = p.solver.absolute_tolerance_factor;
+    return o;
+  }
+
+  /// CVODE options for a tight direct integration of `model`: relative
+  /// tolerance `rtol`, absolute `atol_factor` times each state's typical
+  /// size, difference-quotient Jacobian, no messages.
+  inline system::IntegratorOptions tight_integration(const system::Model &model, double rtol, double atol_factor)
+  {
+    system::IntegratorOptions o;
+    o.relative_tolerance = rtol;
+    for (double s : model.typical_sizes())
+      o.absolute_tolerances.push_back(atol_factor * s);
+    o.finite_difference_jacobian = true;
+    o.quiet                      = true;
     return o;
   }
 } // namespace rectify::test_support

@@ -8,6 +8,7 @@
 
 #include "common/case_file.h"
 #include "model_helpers.h"
+#include "system/integrator.h"
 #include "system/model.h"
 #include "system/simulation.h"
 
@@ -42,6 +43,7 @@ namespace
     p.valves.leak_area_m2                        = 3e-8;
     p.valves.orifice_discharge_coefficient       = 0.6;
     p.lines.outlet_inertance_Pa_s2_per_m3        = 3e7;
+    p.lines.outlet_line_segments                 = 3;
     p.load.coulomb_friction_N                    = 20;
     p.reed.second_mode_frequency_Hz              = 4000;
     return p;
@@ -73,14 +75,15 @@ TEST(Effects, OffMeansTheThesisModelWithItsAnalyticJacobian)
   EXPECT_EQ(m.n_states(), state::thesis_count);
   Model e = make(all_effects(), Scenario::no_flow, 100);
   EXPECT_TRUE(e.needs_difference_jacobian());
-  EXPECT_EQ(e.n_states(), state::count);
+  EXPECT_EQ(e.n_states(), state::count + 4); // the line's segments 2 and 3: a flow and a node each
 }
 
 TEST(Effects, VolumeBalancesCloseWithEveryEffectOn)
 {
   // The three balances of run() hold exactly for the equations, with the
   // free air's stored volume the integral of its compliance, the leak and
-  // orifice inside the valve flows and the line flow a state.
+  // orifice inside the valve flows and the line flows states (the line in
+  // three segments, its nodes' oil in the outlet balance).
   const auto p = all_effects();
   for (auto [scenario, f] : {std::pair{Scenario::no_flow, 100.0}, std::pair{Scenario::loaded, 200.0}})
     {
@@ -377,6 +380,105 @@ TEST(Effects, ASeatedTwoModeReedIsHeldAtItsTipAndRingsAsThePinnedReed)
   EXPECT_NEAR(y[state::outlet_reed_v] - y[state::outlet_reed2_v], v1 - v2, 1e-15);
 }
 
+// A distributed outlet line ([lines] outlet_line_segments = n pi sections):
+// both valves shut and no drive, the 1.58 m line (L = 1.12e8) rings between
+// the valve's node (its lumped oil C_a, a tenth of the high side's) and the
+// high side (C_b, the rest). A lossless line of inertance L and compliance
+// C_line with those end compliances rings at f = theta / (2 pi sqrt(L C_line)),
+// theta the lowest root of tan(theta) = theta (a + b) / (theta^2 a b - 1),
+// a = C_a / C_line, b = C_b / C_line (transmission-line theory). The n
+// sections converge to it at second order (16, 32, 64 sections); one
+// section is far off.
+TEST(Effects, ADistributedOutletLineRingsAtItsTransmissionLineFrequency)
+{
+  const double L   = 1.12e8;
+  const auto   lowest_root = [](double a, double b) { // bisection on (pi/2, pi] for the half-wave-like mode
+    const auto g = [&](double t) { return std::sin(t) * (t * t * a * b - 1) - t * (a + b) * std::cos(t); };
+    double     lo = 1e-3, hi = std::numbers::pi;
+    // the first sign change of g above 0 (g > 0 just above 0 for a + b < 1)
+    for (int k = 1; k <= 1000; ++k)
+      {
+        const double t = k * std::numbers::pi / 1000;
+        if (g(t) * g(lo) <= 0)
+          {
+            hi = t;
+            break;
+          }
+        lo = t;
+      }
+    for (int it = 0; it < 100; ++it)
+      {
+        const double mid = 0.5 * (lo + hi);
+        (g(mid) * g(lo) <= 0 ? hi : lo) = mid;
+      }
+    return 0.5 * (lo + hi);
+  };
+  const auto ringing = [&](long n, double &f_exact) {
+    auto p                                = reference();
+    p.lines.outlet_inertance_Pa_s2_per_m3 = L;
+    p.lines.outlet_line_segments          = n;
+    Model model(p, reference_map(p), ValveModel::dynamic, Scenario::no_flow, Drive::sine(100, 0, 0));
+    const auto  &c      = model.constants();
+    const double C_line = (c.n_line_segments > 1 ? c.C_line_node * static_cast<double>(n) :
+                                                   2 * (c.C_node - 0.1 * make(reference(), Scenario::no_flow, 1)
+                                                                           .constants()
+                                                                           .C_h));
+    const double C_h0   = make(reference(), Scenario::no_flow, 1).constants().C_h;
+    const double a = 0.1 * C_h0 / C_line, b = 0.9 * C_h0 / C_line;
+    f_exact        = lowest_root(a, b) / (2 * std::numbers::pi * std::sqrt(L * C_line));
+    // the line at 1 MPa, its fundamental's shape (cos(pi s / l)) on top: the outlet valve stays shut
+    std::vector<double> y = model.initial_state();
+    y[state::high_p]      = 1e6 - 1e5;
+    for (long k = 0; k < n; ++k)
+      y[state::line_segment_node(static_cast<std::size_t>(k))] =
+        1e6 + 1e5 * std::cos(std::numbers::pi * static_cast<double>(k) / static_cast<double>(n));
+    // the level it rings about: the oil the line and the high side hold, conserved
+    double stored = model.line_stored_volume(y) + c.C_h * y[state::high_p];
+    double C_sum  = c.C_node + c.C_h + c.C_line_node * static_cast<double>(n - 1);
+    const double p_mean = stored / C_sum;
+    Integrator   integrator(model, 0.0, y, test_support::tight_integration(model, 1e-10, 1e-12));
+    const double dt = 2e-6;
+    double       prev = y[state::line_node_p] - p_mean, first = -1, last = -1;
+    int          crossings = 0;
+    for (int i = 1; i <= 20000; ++i) // 40 ms: five to eight periods
+      {
+        integrator.advance_to(i * dt);
+        EXPECT_TRUE(model.closed(0) && model.closed(1));
+        const double now = integrator.state()[state::line_node_p] - p_mean;
+        if (prev < 0 && now >= 0)
+          {
+            const double t = (i - 1 + prev / (prev - now)) * dt;
+            if (first < 0)
+              first = t;
+            last = t;
+            ++crossings;
+          }
+        prev = now;
+      }
+    EXPECT_GE(crossings, 4);
+    return (crossings - 1) / (last - first);
+  };
+  double     f_exact = 0;
+  const long ns[]    = {1, 4, 16, 32, 64};
+  double     err[5];
+  for (int i = 0; i < 5; ++i)
+    {
+      const double f = ringing(ns[i], f_exact);
+      err[i]         = f / f_exact - 1;
+      std::printf("outlet line of %ld section(s): rings at %.2f Hz, the transmission line at %.2f Hz (%+.3f %%)\n",
+                  ns[i], f, f_exact, 100 * err[i]);
+    }
+  EXPECT_GT(std::abs(err[0]), 0.05); // one section: not a distributed line
+  EXPECT_LT(std::abs(err[1]), 0.03);
+  EXPECT_LT(std::abs(err[2]), 0.003);
+  EXPECT_LT(std::abs(err[4]), 5e-4); // what is left: the line's friction, -(R / (omega L))^2 / 8 = -0.03 %
+  // second order: halving the sections quarters the change
+  const double ratio = (err[2] - err[3]) / (err[3] - err[4]);
+  std::printf("convergence: (f16 - f32) / (f32 - f64) = %.2f (second order: 4)\n", ratio);
+  EXPECT_GT(ratio, 3.0);
+  EXPECT_LT(ratio, 5.0);
+}
+
 TEST(Effects, InertialLineFeedsTheHighSideThroughItsOwnNode)
 {
   // Valve into the node between valve and line, line out of it:
@@ -389,6 +491,7 @@ TEST(Effects, InertialLineFeedsTheHighSideThroughItsOwnNode)
   auto p                                = reference();
   p.lines.outlet_inertance_Pa_s2_per_m3 = 1.12e8;
   Model m                               = make(p, Scenario::no_flow, 150);
+  EXPECT_EQ(m.constants().n_line_segments, 1u); // one lumped section, the default
   m.set_closed(0, false);
   std::vector<double> y(m.n_states(), 0.0);
   y[state::outlet_reed_x] = 40e-6;

@@ -89,14 +89,8 @@ namespace
     EXPECT_NEAR(model.loading_scale(0), g, 1e-12);
     const double b = 2 * p.reed.structural_damping_ratio * std::sqrt(k * m / g);
     EXPECT_NEAR(model.structural_damping(0), b, 1e-12 * b);
-    IntegratorOptions o;
-    o.relative_tolerance = 1e-9;
-    for (double s : model.typical_sizes())
-      o.absolute_tolerances.push_back(1e-11 * s);
-    o.finite_difference_jacobian = true;
-    o.quiet                      = true;
     const auto y0 = model.initial_state();
-    Integrator integrator(model, 0.0, y0, o);
+    Integrator integrator(model, 0.0, y0, tight_integration(model, 1e-9, 1e-11));
 
     struct Sample
     {
@@ -263,13 +257,7 @@ TEST(ReedLoading, ASeatedReedLiftsWhenItsForcePassesTheFilmsSuctionLimit)
     p.reed.film_cavitation_pressure_Pa = 1e5;
     const auto set                     = loaded_set(p, 100.0);
     Model      model(p, ValveMaps{set, set}, ValveModel::dynamic, Scenario::no_flow, Drive::sine(10, 20, 10));
-    IntegratorOptions o;
-    o.relative_tolerance = 1e-8;
-    for (double s : model.typical_sizes())
-      o.absolute_tolerances.push_back(1e-10 * s);
-    o.finite_difference_jacobian = true;
-    o.quiet                      = true;
-    Integrator integrator(model, 0.0, model.initial_state(), o);
+    Integrator integrator(model, 0.0, model.initial_state(), tight_integration(model, 1e-8, 1e-10));
     for (int i = 1; i <= 5000; ++i) // the first half cycle, 10 us apart
       {
         integrator.advance_to(i * 1e-5);
