@@ -1,5 +1,6 @@
 #include "system/model.h"
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 
@@ -289,6 +290,31 @@ namespace rectify::system
     if (!drive_.is_voltage())
       return drive_.value(t);
     return c_.coil_dynamics ? y[state::coil_current] : drive_.value(t) / c_.R_coil;
+  }
+
+  double ModelConstants::outlet_line_ringing_Hz() const
+  {
+    if (!(L_line > 0))
+      return 0.0;
+    // K p = omega^2 C p on the n + 1 nodes (the last the high side), K the
+    // chain's stiffness (1 / (L / n) per segment); symmetric as
+    // C^-1/2 K C^-1/2, its lowest eigenvalue 0 (all nodes at one pressure).
+    const std::size_t n = n_line_segments;
+    Eigen::VectorXd   C(n + 1);
+    for (std::size_t k = 0; k <= n; ++k)
+      C(static_cast<Eigen::Index>(k)) = k == 0 ? C_node : k == n ? C_h + C_seal : C_line_node;
+    Eigen::MatrixXd S = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(n + 1), static_cast<Eigen::Index>(n + 1));
+    const double    g = static_cast<double>(n) / L_line;
+    for (Eigen::Index k = 0; k < static_cast<Eigen::Index>(n); ++k)
+      {
+        const double a = 1.0 / std::sqrt(C(k)), b = 1.0 / std::sqrt(C(k + 1));
+        S(k, k) += g * a * a;
+        S(k + 1, k + 1) += g * b * b;
+        S(k, k + 1) -= g * a * b;
+        S(k + 1, k) -= g * a * b;
+      }
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(S, Eigen::EigenvaluesOnly);
+    return std::sqrt(std::max(eig.eigenvalues()(1), 0.0)) / (2.0 * M_PI);
   }
 
   double Model::line_stored_volume(std::span<const double> y) const

@@ -135,6 +135,13 @@ namespace rectify::system
     double k_r2, b_r2;             ///< second reed mode (k_r2 = 0: off)
 
     ModelConstants(const SystemParameters &p, Scenario scenario);
+    /// The inertial outlet line's lowest frequency with both valves shut
+    /// [Hz]: the chain of its n segments (L / n each) between the node
+    /// after the valve, the nodes between segments and the high side (with
+    /// the seal), lossless, without free air; 1 / (2 pi sqrt(L C)) with C
+    /// the node's and the high side's compliances in series for one
+    /// segment. 0 without the line.
+    double outlet_line_ringing_Hz() const;
     nlohmann::json to_json() const;
   };
 

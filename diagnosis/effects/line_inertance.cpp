@@ -21,15 +21,13 @@ namespace rectify::diagnosis
       std::vector<EffectParameter>{{"lines", "outlet_inertance_Pa_s2_per_m3", 1e5, 1e9, true,
                                     "inertance of the outlet line (4/3 rho l / A)", 0,
                                     // with the outlet valve closed the line's oil swings
-                                    // between the node and the high side: the two
-                                    // compliances in series with L
+                                    // between the node and the high side (through the
+                                    // line's own sections if it has several)
                                     [](double L, const system::SystemParameters &base) {
                                       auto p = base;
                                       p.lines.outlet_inertance_Pa_s2_per_m3 = L;
-                                      const system::ModelConstants c(p, system::Scenario::no_flow);
-                                      const double C_rest = c.C_h + c.C_seal;
-                                      const double C = c.C_node * C_rest / (c.C_node + C_rest);
-                                      return 1.0 / (2.0 * std::numbers::pi * std::sqrt(L * C));
+                                      return system::ModelConstants(p, system::Scenario::no_flow)
+                                        .outlet_line_ringing_Hz();
                                     }}},
       [](std::span<const double> v, system::SystemParameters &p) {
         p.lines.outlet_inertance_Pa_s2_per_m3 = v[0];
