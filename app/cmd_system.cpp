@@ -74,20 +74,7 @@ namespace rectify::app
           system::use_fluid_loading(p, file, fluid_loading);
         if (!map_set.empty())
           system::use_map_set(p, file, map_set);
-        if (!std::isnan(seat_film_m) || !film_suction_limit.empty())
-          {
-            if (p.reed.fluid_loading != "map")
-              throw InputError("--seat-film-m and --film-suction-limit shape the map's squeeze film: give "
-                               "--fluid-loading map (or [reed] fluid_loading = \"map\") as well");
-            if (!std::isnan(seat_film_m))
-              {
-                if (!(seat_film_m >= 0 && seat_film_m <= 1e-3))
-                  throw InputError("--seat-film-m " + format_number(seat_film_m) + ": must be in [0, 1e-3] (m)");
-                p.reed.seat_film_m = seat_film_m;
-              }
-            if (!film_suction_limit.empty())
-              p.reed.film_suction_limit = film_suction_limit;
-          }
+        system::use_seat_film(p, seat_film_m, film_suction_limit);
         if (!std::isnan(current_pp_A))
           p.drive.current_pp_A = current_pp_A;
         if (!std::isnan(current_bias_A))

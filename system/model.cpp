@@ -429,7 +429,7 @@ namespace rectify::system
     s[state::outlet_reed2_v] = s[state::inlet_reed2_v] = v;
     s[state::line_node_p]    = p;
     s.resize(n_states());
-    for (std::size_t k = 1; k < c_.n_line_segments && s.size() > state::count; ++k)
+    for (std::size_t k = 1; k < c_.n_line_segments; ++k) // n > 1: the line is on, so are its states
       {
         s[state::line_segment_flow(k)] = c_.A_pi * v;
         s[state::line_segment_node(k)] = p;

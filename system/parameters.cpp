@@ -121,7 +121,7 @@ namespace rectify::system
     if (p.fluid_loading == "thesis" && f.has(t, "structural_damping_ratio"))
       throw InputError(f.where(t, "structural_damping_ratio") +
                        ": read only with fluid_loading = \"map\" (the thesis's damping_ratio holds all of it)");
-    p.seat_film_m = f.real(t, "seat_film_m", p.seat_film_m, Bounds::closed(0.0, 1e-3));
+    p.seat_film_m = f.real(t, "seat_film_m", p.seat_film_m, seat_film_bounds());
     p.film_suction_limit = f.text(t, "film_suction_limit", p.film_suction_limit, {"cavitation", "none"});
     p.film_cavitation_pressure_Pa =
       f.real(t, "film_cavitation_pressure_Pa", p.film_cavitation_pressure_Pa, Bounds::closed(0.0, 1e8));
@@ -439,6 +439,28 @@ namespace rectify::system
       throw InputError("fluid loading '" + mode + "': expected thesis or map");
     p.reed.fluid_loading = mode;
     apply_map_sets(f, p, true);
+  }
+
+  void use_seat_film(SystemParameters &p, double seat_film_m, const std::string &suction_limit)
+  {
+    if (std::isnan(seat_film_m) && suction_limit.empty())
+      return;
+    if (p.reed.fluid_loading != "map")
+      throw InputError("--seat-film-m and --film-suction-limit shape the map's squeeze film: give "
+                       "--fluid-loading map (or [reed] fluid_loading = \"map\") as well");
+    if (!std::isnan(seat_film_m))
+      {
+        if (!ReedParameters::seat_film_bounds().contains(seat_film_m))
+          throw InputError("--seat-film-m " + format_number(seat_film_m) + ": must be " +
+                           ReedParameters::seat_film_bounds().describe() + " (m)");
+        p.reed.seat_film_m = seat_film_m;
+      }
+    if (!suction_limit.empty())
+      {
+        if (suction_limit != "cavitation" && suction_limit != "none")
+          throw InputError("--film-suction-limit '" + suction_limit + "': expected cavitation or none");
+        p.reed.film_suction_limit = suction_limit;
+      }
   }
 
   std::array<maps::MapSet, 2> load_valve_maps(const SystemParameters &p)

@@ -80,6 +80,7 @@ namespace rectify::system
     /// than this (the seat's roughness and flatness: a reed "on its seat"
     /// still stands this far off it); the loading is read at x + h0.
     double      seat_film_m = 0.0;
+    static Bounds seat_film_bounds() { return Bounds::closed(0.0, 1e-3); }
     /// "cavitation": the film's suction on a lifting reed cannot pull its
     /// pressure below film_cavitation_pressure_Pa (absolute): the suction
     /// force is at most (p_pocket - p_cav) times the map set's film modal
@@ -252,6 +253,11 @@ namespace rectify::system
   /// --fluid-loading) and, since the reed's mass depends on it, takes the
   /// mass from the case's map sets again.
   void use_fluid_loading(SystemParameters &parameters, const CaseFile &file, const std::string &mode);
+  /// Sets what ends the map's squeeze film at the seat (a command line's
+  /// --seat-film-m, --film-suction-limit): a NaN seat film or an empty limit
+  /// leaves the case's. InputError unless the fluid loading is "map" and the
+  /// values are in [reed]'s ranges.
+  void use_seat_film(SystemParameters &parameters, double seat_film_m, const std::string &suction_limit);
 
   /// The two valves' maps (0 outlet, 1 inlet): their map sets, or the R(x)
   /// map with the constant area A_r. InputError for a missing or bad file.

@@ -335,6 +335,16 @@ namespace rectify::system
       1u, std::min<unsigned>(options.jobs ? options.jobs : std::thread::hardware_concurrency(),
                              static_cast<unsigned>(chains.size())));
 
+    // A finished point: checkpointed, kept, reported.
+    auto record = [&](const SweepPoint &pt, const std::string &what) {
+      checkpoint.append(to_csv_row(pt));
+      {
+        std::lock_guard<std::mutex> lock(mutex);
+        done[key(pt.series, pt.frequency_Hz)] = pt;
+      }
+      progress.step(what);
+    };
+
     // One run, checkpointed; returns its end state (a chain's next start),
     // none if the integrator failed: then the point is recorded as failed
     // (regime "failed: <why>", its numbers NaN) and the sweep goes on.
@@ -356,13 +366,8 @@ namespace rectify::system
         }
       catch (const std::runtime_error &e)
         {
-          SweepPoint pt = failed_point(series.name, frequency, e.what());
-          checkpoint.append(to_csv_row(pt));
-          {
-            std::lock_guard<std::mutex> lock(mutex);
-            done[key(pt.series, pt.frequency_Hz)] = pt;
-          }
-          progress.step(series.name + " " + format_number(frequency) + " Hz: " + pt.regime);
+          const SweepPoint pt = failed_point(series.name, frequency, e.what());
+          record(pt, series.name + " " + format_number(frequency) + " Hz: " + pt.regime);
           return std::nullopt;
         }
       SweepPoint pt{series.name,
@@ -384,11 +389,6 @@ namespace rectify::system
       // The state first: a point whose row is written always has its state.
       if (states)
         states->append(to_state_row(key(series.name, frequency), r.end_state));
-      checkpoint.append(to_csv_row(pt));
-      {
-        std::lock_guard<std::mutex> lock(mutex);
-        done[key(pt.series, pt.frequency_Hz)] = pt;
-      }
       char what[160];
       std::snprintf(what, sizeof(what), "%s %.4g Hz: %s %.4g, %zu+%zu cycles, %.2f s",
                     pt.series.c_str(), pt.frequency_Hz,
@@ -396,7 +396,7 @@ namespace rectify::system
                     options.scenario == Scenario::no_flow ? pt.stored_pressure_Pa :
                                                             pt.mean_velocity_m_per_s,
                     pt.startup_cycles, pt.measured_cycles, pt.wall_time_s);
-      progress.step(what);
+      record(pt, what);
       return std::move(r.end_state);
     };
 

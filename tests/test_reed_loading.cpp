@@ -457,6 +457,10 @@ TEST(ReedLoading, TheFilmsKeysAreReadOnlyWithTheMapsLoading)
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("--fluid-loading map"), std::string::npos) << r.output;
   EXPECT_FALSE(std::filesystem::exists(dir / "out"));
+  r = rectify_cli("simulate --fluid-loading map --seat-film-m -1e-6 --cycles 1 --out " + (dir / "out").string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--seat-film-m -1e-06: must be"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir / "out"));
   const auto map = (reference_case_path().parent_path() / "thesis-resistance.csv").string();
   write_file_atomic(dir / "case.toml", replace(replace(reference_text(), "\"thesis-resistance.csv\"", "\"" + map + "\""),
                                                "fluid_loading = \"thesis\"\n",
