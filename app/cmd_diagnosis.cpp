@@ -220,9 +220,13 @@ namespace rectify::app
           {
             const auto e = diagnosis::find_effect(rr.effect);
             effects_named += (effects_named.empty() ? "" : "+") + rr.effect;
-            for (std::size_t i = 0; i < rr.values.size(); ++i)
-              entries.push_back({e->parameters()[i].table, e->parameters()[i].key, format_number(rr.values[i]),
-                                 "rectify diagnose: " + rr.effect + " (fitted)"});
+            for (std::size_t i = 0; i < rr.values.size(); ++i) // as applied (a range's end can mean off)
+              {
+                const auto &spec = e->parameters()[i];
+                entries.push_back({spec.table, spec.key,
+                                   format_number(result.final_parameters.real_value(spec.table, spec.key)),
+                                   "rectify diagnose: " + rr.effect + " (fitted)"});
+              }
             for (const auto &k : e->fixed_keys())
               entries.push_back({k.table, k.key, k.value, "rectify diagnose: " + rr.effect});
           }

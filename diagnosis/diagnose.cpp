@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <mutex>
+#include <optional>
 #include <thread>
 
 #include <Eigen/Dense>
@@ -286,17 +287,22 @@ namespace rectify::diagnosis
     /// its first 3 cycles +-5 % (the ringing's phase error grows with time).
     /// So: (1) the frequency of the largest peak in the residual of the
     /// outlet (or chamber) pressure of each run, between 2.5 f and 0.4 of
-    /// the sampling rate, gives through ringing_Hz a value per run, their
-    /// median a centre; (2) a scan of +-25 % about it in 2 % steps over the
-    /// first 3 cycles of each run; (3) a scan of +-2 % in 0.5 % steps about
-    /// the best over the first 6. Returns the best point of (3), with the
-    /// force gain at 1, or an empty vector when the residual shows no
+    /// the sampling rate; their median is the ringing to match; (2) the
+    /// ringing depends on the baseline too (a line's oil, from its
+    /// uncertain bore, sets its wave speed): along each free [uncertain]
+    /// parameter that moves the ringing by more than 5 % over its range,
+    /// 9 positions, each with the value that rings at that frequency
+    /// there, compared over the first 3 cycles of each run (the baseline
+    /// as its fit left it, and at the case's values); (3) about the best, a
+    /// scan of +-25 % in 2 % steps over the first 3 cycles, (4) then +-2 %
+    /// in 0.5 % steps over the first 6. Returns the best point of (4) (gain
+    /// as in the start), or an empty vector when the residual shows no
     /// ringing in the parameter's range; counts its (short) runs of the
     /// model into runs_of_the_model.
     std::vector<double> ringing_start(const Evaluator &ev, int &runs_of_the_model)
     {
       const EffectParameter &par = ev.effect->parameters()[0];
-      std::vector<double>    centres;
+      std::vector<double>    peaks;
       for (std::size_t r = 0; r < ev.runs.size(); ++r)
         {
           const auto       &rc = ev.runs[r];
@@ -318,45 +324,95 @@ namespace rectify::diagnosis
           const double f_low  = std::max(2.5 * rc.setup.frequency_Hz, par.ringing_Hz(par.upper, ev.base));
           if (!(f_low < f_high))
             continue;
-          const double f_peak = dominant_frequency(t, residual, f_low, f_high);
-          if (!(f_peak > 0))
-            continue;
-          double a = 0, b = 1; // ringing_Hz(from_unit(u)) = f_peak, by bisection
-          for (int i = 0; i < 60; ++i)
-            {
-              const double mid = 0.5 * (a + b);
-              (par.ringing_Hz(par.from_unit(mid), ev.base) > f_peak ? a : b) = mid;
-            }
-          centres.push_back(par.from_unit(0.5 * (a + b)));
+          if (const double f_peak = dominant_frequency(t, residual, f_low, f_high); f_peak > 0)
+            peaks.push_back(f_peak);
         }
-      if (centres.empty())
+      if (peaks.empty())
         return {};
-      std::sort(centres.begin(), centres.end());
-      double best_value = centres[centres.size() / 2];
+      std::sort(peaks.begin(), peaks.end());
+      const double f_peak = peaks[peaks.size() / 2];
 
-      const unsigned dim  = static_cast<unsigned>(ev.dimension());
-      const auto     scan = [&](double horizon, double ratio, int half_width) {
-        Evaluator short_ev      = ev;
-        short_ev.horizon_cycles = horizon;
-        Objective o{&short_ev, 0, 0, 0, 1e300, {}};
-        for (int j = -half_width; j <= half_width; ++j)
+      // the parameter's unit position that rings at f_peak on the model at u
+      // (ringing_Hz decreases in the value), or nothing when out of range
+      const auto ringing_at = [&](const std::vector<double> &u) -> std::optional<double> {
+        const auto p = ev.parameters(u);
+        if (!(par.ringing_Hz(par.upper, p) < f_peak && f_peak < par.ringing_Hz(par.lower, p)))
+          return std::nullopt;
+        double a = 0, b = 1;
+        for (int i = 0; i < 60; ++i)
           {
-            const double v = best_value * std::pow(ratio, j);
+            const double mid = 0.5 * (a + b);
+            (par.ringing_Hz(par.from_unit(mid), p) > f_peak ? a : b) = mid;
+          }
+        return 0.5 * (a + b);
+      };
+
+      const unsigned dim = static_cast<unsigned>(ev.dimension());
+      Evaluator      short_ev = ev;
+      short_ev.horizon_cycles = 3.0;
+      Objective o3{&short_ev, 0, 0, 0, 1e300, {}};
+      const auto try_point = [&](std::vector<double> u) {
+        if (const auto at = ringing_at(u))
+          {
+            u[0] = *at;
+            objective(dim, u.data(), nullptr, &o3);
+          }
+      };
+      std::vector<std::vector<double>> bases{ev.start_point()};
+      if (const auto prior = ev.prior_point(); prior != bases[0])
+        bases.push_back(prior);
+      for (const auto &b : bases)
+        {
+          const auto at = ringing_at(b); // the value that rings at f_peak here
+          if (!at)
+            continue;
+          try_point(b);
+          for (std::size_t i = 0; i < ev.free.size(); ++i)
+            {
+              // does this baseline parameter move that ringing?
+              const std::size_t j = ev.n_effect() + i;
+              auto lo = b, hi = b;
+              lo[0] = hi[0] = *at;
+              lo[j] = 0.0;
+              hi[j] = 1.0;
+              const double f_lo = par.ringing_Hz(par.from_unit(*at), ev.parameters(lo));
+              const double f_hi = par.ringing_Hz(par.from_unit(*at), ev.parameters(hi));
+              if (!(std::abs(std::log(f_hi / f_lo)) > 0.05))
+                continue;
+              for (int g = 0; g < 9; ++g)
+                {
+                  auto u = b;
+                  u[j]   = (g + 0.5) / 9.0;
+                  try_point(u);
+                }
+            }
+        }
+      runs_of_the_model += o3.evaluations;
+      if (o3.best_u.empty())
+        return {};
+      std::vector<double> best = o3.best_u;
+
+      const auto scan = [&](double horizon, double ratio, int half_width) {
+        Evaluator s_ev      = ev;
+        s_ev.horizon_cycles = horizon;
+        Objective    o{&s_ev, 0, 0, 0, 1e300, {}};
+        const double centre = par.from_unit(best[0]);
+        for (int k = -half_width; k <= half_width; ++k)
+          {
+            const double v = centre * std::pow(ratio, k);
             if (v < par.lower || v > par.upper)
               continue;
-            std::vector<double> u = ev.start_point();
+            std::vector<double> u = best;
             u[0] = par.to_unit(v);
             objective(dim, u.data(), nullptr, &o);
           }
         if (!o.best_u.empty())
-          best_value = par.from_unit(o.best_u[0]);
-        return o.evaluations;
+          best = o.best_u;
+        runs_of_the_model += o.evaluations;
       };
-      runs_of_the_model += scan(3.0, 1.02, 12);
-      runs_of_the_model += scan(6.0, 1.005, 4);
-      std::vector<double> u = ev.start_point();
-      u[0] = par.to_unit(best_value);
-      return u;
+      scan(3.0, 1.02, 12);
+      scan(6.0, 1.005, 4);
+      return best;
     }
 
     /// Fits ev's candidate: from a coarse grid over the effect's first
@@ -376,6 +432,7 @@ namespace rectify::diagnosis
         double              value; ///< the objective there
         std::vector<double> u;
         double              step;  ///< BOBYQA's first step from there
+        bool                from_ringing = false; ///< ringing_start's point: always refined
       };
       std::vector<Start> grid;
       const int grid_points = ev.effect && ev.effect->parameters()[0].grid_points > 0 ?
@@ -392,6 +449,9 @@ namespace rectify::diagnosis
         grid.push_back({objective(dim, at.data(), nullptr, &o), at, step});
       };
       int short_runs = 0; // runs of the model over part of the record (ringing_start)
+      if (from_point && from_point->size() != dim)
+        throw std::logic_error("diagnose: a fit's start point has " + std::to_string(from_point->size()) +
+                               " coordinates, its candidate " + std::to_string(dim));
       if (from_point)
         add_start(*from_point, ringing ? fine_step(*from_point) : 0.02);
       else if (ev.effect)
@@ -410,7 +470,10 @@ namespace rectify::diagnosis
               }
           if (ringing)
             if (const auto r = ringing_start(ev, short_runs); !r.empty())
-              add_start(r, fine_step(r));
+              {
+                add_start(r, fine_step(r));
+                grid.back().from_ringing = true;
+              }
         }
       else
         add_start(u, 0.5 / grid_points);
@@ -422,9 +485,14 @@ namespace rectify::diagnosis
       // tolerance, which can stop a trust region early in a curved valley
       // (effect vs force gain).
       nlopt_result status = NLOPT_SUCCESS;
+      // (and from ringing_start's point wherever it ranks: its basin is narrow,
+      // and a coarse grid point can be lower on a 16-cycle objective while
+      // lying in another basin)
       const std::size_t starts = std::min<std::size_t>(grid.size(), ev.effect ? 2 : 1);
-      for (std::size_t start_i = 0; start_i < starts; ++start_i)
+      for (std::size_t start_i = 0; start_i < grid.size(); ++start_i)
         {
+          if (start_i >= starts && !grid[start_i].from_ringing)
+            continue;
           std::vector<double> from         = grid[start_i].u;
           double              best_f       = grid[start_i].value;
           double              initial_step = grid[start_i].step;
@@ -906,6 +974,7 @@ namespace rectify::diagnosis
       ev.nuisance_start = start;
       return out;
     }
+
   } // namespace
 
   DiagnosisResult diagnose(const system::SystemParameters &base_in, const system::ValveMaps &map,
@@ -1095,11 +1164,14 @@ namespace rectify::diagnosis
                 reasons += buf;
                 continue;
               }
+            // ... and half of the dominant feature above the noise (the
+            // feature is in noise units: no effect can take that unit away)
             const double after = feature(predictions[i]);
-            if (!(after <= 0.5 * feature_before))
+            if (!(gap(after) <= 0.5 * gap(feature_before)))
               {
                 std::snprintf(buf, sizeof buf,
-                              "%s: explains too little of the dominant feature (%s, %s half: %.3g -> %.3g). ",
+                              "%s: explains too little of the dominant feature (%s, %s half: %.3g -> %.3g noise "
+                              "units; half of it above the noise needed). ",
                               c.effect.c_str(), signal.c_str(), half.c_str(), feature_before, after);
                 reasons += buf;
                 continue;

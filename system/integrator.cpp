@@ -210,6 +210,8 @@ namespace rectify::system
     if (!options.finite_difference_jacobian)
       check(CVodeSetJacFn(m.cvode, jac_callback), "CVodeSetJacFn");
     check(CVodeSetMaxNumSteps(m.cvode, options.max_steps_between_outputs), "CVodeSetMaxNumSteps");
+    if (options.max_order > 0)
+      check(CVodeSetMaxOrd(m.cvode, options.max_order), "CVodeSetMaxOrd");
     if (system.n_roots() > 0)
       {
         check(CVodeRootInit(m.cvode, static_cast<int>(system.n_roots()), root_callback),

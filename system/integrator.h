@@ -44,6 +44,10 @@ namespace rectify::system
     bool                finite_difference_jacobian = false;
     long                max_steps_between_outputs   = 1000000;
     bool                quiet = false; ///< no CVODE messages on stderr (failures still throw)
+    /// Highest BDF order CVODE may use (0: its own, 5). Orders 1-2 are
+    /// A-stable; 3-5 are not near the imaginary axis, where a lightly damped
+    /// fast mode lies (Model::max_bdf_order).
+    int                 max_order = 0;
   };
 
   /// CVODE counters, summed over every reinitialisation.

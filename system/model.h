@@ -218,6 +218,12 @@ namespace rectify::system
     /// True if an optional effect is on: the analytic Jacobian covers only
     /// the thesis model, so CVODE's difference quotients are used instead.
     bool                needs_difference_jacobian() const;
+    /// The highest BDF order the integrator should use (0: no limit). 2 with
+    /// an outlet line of several sections: a short line's sections ring
+    /// lightly damped at 10^5-10^7 Hz, where BDF orders 3-5 are unstable and
+    /// CVODE falls to tiny steps (857 k steps for a 150 Hz record at
+    /// L = 1e4, 62 k at order 2; a long line: 36 k vs 64 k).
+    int                 max_bdf_order() const { return c_.L_line > 0 && c_.n_line_segments > 1 ? 2 : 0; }
     /// The seat's reaction on a seated two-mode reed that keeps its tip at
     /// the seat (force: the opening force; x, v: the modes' tip coordinates).
     double              seat_reaction(double force, double x1, double v1, double x2, double v2) const;

@@ -131,12 +131,13 @@ namespace rectify::system
     /// (laminar), which also adds its resistance and oil (ModelConstants);
     /// 0 for none (the thesis neglects it).
     double outlet_inertance_Pa_s2_per_m3 = 0.0;
-    /// That added line as this many lumped pi sections in a chain (1, the
-    /// default: one lumped line; more: a distributed line that carries its
-    /// waves; 6 put a 1.6 m line's lowest frequency within 1.1 %). Not a
-    /// length-based count: a fit of L or of the bore would jump where the
-    /// count changes (docs/diagnosis.md, "A distributed outlet line").
-    long outlet_line_segments = 1;
+    /// That added line as this many lumped pi sections in a chain (6, the
+    /// default: a distributed line that carries its waves, a 1.6 m line's
+    /// lowest frequency within 1.1 %; 1: one lumped section, which rings
+    /// 34 % low). Not a length-based count: a fit of L or of the bore would
+    /// jump where the count changes (docs/diagnosis.md, "A distributed
+    /// outlet line").
+    long outlet_line_segments = 6;
     static LineParameters from_case(const CaseFile &file);
   };
 

@@ -60,6 +60,7 @@ namespace rectify::system
                                       options.relative_tolerance * s);
     o.finite_difference_jacobian =
       options.finite_difference_jacobian || model.needs_difference_jacobian();
+    o.max_order                  = model.max_bdf_order();
     o.max_steps_between_outputs  = std::max<long>(
       500, options.max_steps_per_cycle / static_cast<long>(options.samples_per_cycle));
     return o;

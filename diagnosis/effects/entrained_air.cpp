@@ -13,8 +13,9 @@ namespace rectify::diagnosis
       "with the local pressure: the chamber, high and low sides soften at low pressure",
       "chamber pressure swings less and lags during refill (low pressure, soft oil); the stored "
       "pressure builds up more slowly; errors grow at higher frequency",
-      std::vector<EffectParameter>{{"fluid", "free_air_fraction", 1e-5, 2e-2, true,
-                                    "free-air volume fraction at the bias pressure"}},
+      // 14 grid points: 0.38 decade apart, as 9 were over the former 1e-5..2e-2
+      std::vector<EffectParameter>{{"fluid", "free_air_fraction", 1e-7, 2e-2, true,
+                                    "free-air volume fraction at the bias pressure", 14}},
       [](std::span<const double> v, system::SystemParameters &p) {
         p.fluid.free_air_fraction = v[0];
       });

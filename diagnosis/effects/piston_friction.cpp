@@ -26,8 +26,9 @@ namespace rectify::diagnosis
       "[load] friction_velocity_scale_m_per_s",
       "the loaded actuator moves slower by a constant force's worth, F_c / A_po of pressure "
       "difference; the outlet pressure sits higher",
-      std::vector<EffectParameter>{{"load", "coulomb_friction_N", 0.1, 100.0, true,
-                                    "Coulomb friction force on the output piston"}},
+      // 12 grid points: 0.33 decade apart, as 9 were over the former 0.1..100
+      std::vector<EffectParameter>{{"load", "coulomb_friction_N", 0.01, 100.0, true,
+                                    "Coulomb friction force on the output piston", 12}},
       [](std::span<const double> v, system::SystemParameters &p) {
         p.load.coulomb_friction_N = v[0];
       });
