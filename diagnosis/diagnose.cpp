@@ -1288,10 +1288,16 @@ namespace rectify::diagnosis
       if (named_effect != "none" && after <= floor_units)
         {
           result.verdict = "explained";
-          std::snprintf(buf, sizeof buf,
-                        "%s explains the gap: residual %.3g noise units with the calibrated baseline alone, "
-                        "%.3g with it (%.0f %% of the gap above the noise closed)",
-                        named_effect.c_str(), baseline, after, 100 * result.explained_fraction);
+          if (gap(baseline) > 0)
+            std::snprintf(buf, sizeof buf,
+                          "%s explains the gap: residual %.3g noise units with the calibrated baseline alone, "
+                          "%.3g with it (%.0f %% of the gap above the noise closed)",
+                          named_effect.c_str(), baseline, after, 100 * result.explained_fraction);
+          else // named on its training part; over the whole record the baseline was within the noise
+            std::snprintf(buf, sizeof buf,
+                          "%s explains the gap on the fitted part; over the whole record the calibrated baseline "
+                          "alone already left %.3g noise units (within the noise), %.3g with it",
+                          named_effect.c_str(), baseline, after);
         }
       else if (named_effect != "none")
         {
