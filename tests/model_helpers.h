@@ -1,6 +1,10 @@
 // The reference case's system parameters and R(x) map, for the model tests.
 #pragma once
 
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
 #include "common/case_file.h"
 #include "maps/resistance_map.h"
 #include "system/integrator.h"
@@ -28,6 +32,27 @@ namespace rectify::test_support
     o.relative_tolerance        = p.solver.relative_tolerance;
     o.absolute_tolerance_factor = p.solver.absolute_tolerance_factor;
     return o;
+  }
+
+  /// RMS of b - a over column `name` of two recorded runs of one length,
+  /// per a's RMS about its mean (its swing).
+  inline double rms_difference_per_swing(const system::RunResult &a, const system::RunResult &b,
+                                         const std::string &name)
+  {
+    const auto x = a.series->column(name), y = b.series->column(name);
+    if (x.size() != y.size() || x.empty())
+      throw std::logic_error("rms_difference_per_swing: '" + name + "' has " + std::to_string(x.size()) + " and " +
+                             std::to_string(y.size()) + " samples");
+    double mean = 0;
+    for (double v : x)
+      mean += v / static_cast<double>(x.size());
+    double sum = 0, var = 0;
+    for (std::size_t i = 0; i < x.size(); ++i)
+      {
+        sum += (y[i] - x[i]) * (y[i] - x[i]);
+        var += (x[i] - mean) * (x[i] - mean);
+      }
+    return std::sqrt(sum / var);
   }
 
   /// CVODE options for a tight direct integration of `model`: relative

@@ -132,6 +132,7 @@ TEST(MeasuredRun, BadDataNamesFileRowAndColumn)
 #include <random>
 
 #include "cli_helpers.h"
+#include "model_helpers.h"
 #include "diagnosis/case_edit.h"
 #include "diagnosis/effect.h"
 #include "diagnosis/observation.h"
@@ -343,19 +344,7 @@ TEST(Diagnosis, EveryEffectsRangeReachesNoEffect)
   const auto largest = [&](const system::RunResult &r) { // the largest RMS difference, per swing
     double worst = 0;
     for (const std::string name : {"chamber_pressure_Pa", "high_pressure_Pa", "outlet_pressure_Pa"})
-      {
-        const auto a = off.series->column(name), b = r.series->column(name);
-        EXPECT_EQ(a.size(), b.size());
-        double sum = 0, mean = 0, var = 0;
-        for (std::size_t i = 0; i < a.size(); ++i)
-          {
-            sum += (a[i] - b[i]) * (a[i] - b[i]);
-            mean += a[i] / static_cast<double>(a.size());
-          }
-        for (double v : a)
-          var += (v - mean) * (v - mean);
-        worst = std::max(worst, std::sqrt(sum / var));
-      }
+      worst = std::max(worst, rms_difference_per_swing(off, r, name));
     return worst;
   };
   for (const auto &e : effect_library())

@@ -506,16 +506,7 @@ TEST(Effects, AShortDistributedLineIsIntegratedAtSecondOrder)
   tight.record             = true;
   const auto   reference_run = run(tight_model, tight);
   const auto   error = [&](const RunResult &r) {
-    const auto a = reference_run.series->column("chamber_pressure_Pa"), b = r.series->column("chamber_pressure_Pa");
-    double     sum = 0, mean = 0, var = 0;
-    for (std::size_t i = 0; i < a.size(); ++i)
-      {
-        sum += (a[i] - b[i]) * (a[i] - b[i]);
-        mean += a[i] / static_cast<double>(a.size());
-      }
-    for (double v : a)
-      var += (v - mean) * (v - mean);
-    return std::sqrt(sum / var);
+    return test_support::rms_difference_per_swing(reference_run, r, "chamber_pressure_Pa");
   };
   RunOptions o         = options(6);
   o.relative_tolerance = 1e-5;

@@ -18,7 +18,7 @@ namespace rectify::diagnosis
 {
   std::shared_ptr<const Effect> make_line_inertance()
   {
-    constexpr double lowest_inertance = 1e4 * (1 + 1e-9);
+    constexpr double off_below = 1e4; // the range's lower end: there the line is off
     return std::make_shared<Effect>(
       "line_inertance",
       "fluid inertance of the outlet line, L dq/dt in series with the line's resistance, fed "
@@ -26,7 +26,7 @@ namespace rectify::diagnosis
       "of line of the case's bore (4/3 rho l / A), whose resistance and oil compliance come with it",
       "the outlet flow lags the chamber: the outlet valve's pressure drop overshoots at each "
       "opening and the outlet pressure rings after each closing; grows with frequency",
-      std::vector<EffectParameter>{{"lines", "outlet_inertance_Pa_s2_per_m3", 1e4, 1e9, true,
+      std::vector<EffectParameter>{{"lines", "outlet_inertance_Pa_s2_per_m3", off_below, 1e9, true,
                                     "inertance of the outlet line (4/3 rho l / A)", 12, // 0.42 decade apart, as 9 over 1e5..1e9
                                     // with the outlet valve closed the line's oil swings
                                     // between the node and the high side (through the
@@ -38,7 +38,7 @@ namespace rectify::diagnosis
                                         .outlet_line_ringing_Hz();
                                     }}},
       [](std::span<const double> v, system::SystemParameters &p) {
-        p.lines.outlet_inertance_Pa_s2_per_m3 = v[0] > lowest_inertance ? v[0] : 0.0; // the lower end: off
+        p.lines.outlet_inertance_Pa_s2_per_m3 = v[0] > off_below * (1 + 1e-9) ? v[0] : 0.0;
       });
   }
 } // namespace rectify::diagnosis
