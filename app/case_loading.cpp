@@ -11,6 +11,12 @@ namespace rectify::app
   CaseFile load_case(const std::filesystem::path &path, bool read_map_sets)
   {
     CaseFile file = CaseFile::load(path);
+    check_every_stage(file, read_map_sets);
+    return file;
+  }
+
+  void check_every_stage(const CaseFile &file, bool read_map_sets)
+  {
     // Without read_map_sets, the system's tables are read but its map sets not
     // opened (`design` may be about to write the very map set the case names).
     (void)system::SystemParameters::from_case(file, read_map_sets);
@@ -19,6 +25,5 @@ namespace rectify::app
     (void)mesher::MeshParameters::from_case(file);
     (void)stokes::FlowParameters::from_case(file);
     file.check_all_keys_known();
-    return file;
   }
 } // namespace rectify::app

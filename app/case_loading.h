@@ -11,4 +11,7 @@ namespace rectify::app
 {
   /// `read_map_sets` false: the system's map sets are not opened (nor checked).
   CaseFile load_case(const std::filesystem::path &path, bool read_map_sets = true);
+
+  /// What load_case checks, for a case made in memory (a what-if design).
+  void check_every_stage(const CaseFile &file, bool read_map_sets = true);
 } // namespace rectify::app

@@ -13,7 +13,7 @@
 #include <sstream>
 
 #include "common/plot.h"
-#include "diagnosis/case_edit.h"
+#include "common/case_edit.h"
 #include "diagnosis/diagnose.h"
 #include "diagnosis/effect.h"
 #include "diagnosis/synth.h"
@@ -213,7 +213,7 @@ namespace rectify::app
       summary["data"]            = o.data;
 
       // The new case file with the named effects (and the fitted gain).
-      std::vector<diagnosis::CaseEntry> entries;
+      std::vector<CaseEntry> entries;
       std::string                       effects_named;
       for (const auto &rr : result.rounds)
         if (rr.effect != "none")
@@ -253,7 +253,7 @@ namespace rectify::app
       const std::string edited =
         "# Written by rectify diagnose from " + std::filesystem::absolute(file.name()).string() +
         "\n# with the named effect(s) and the fitted force gain; see summary.json.\n" +
-        diagnosis::edit_case_text(text, std::filesystem::path(file.name()).parent_path(), entries);
+        edit_case_text(text, std::filesystem::path(file.name()).parent_path(), entries);
       write_file_atomic(out / case_name, edited);
       // Check: the new case file reproduces the refitted model (a case
       // file that cannot be read back or simulated is not left behind).

@@ -92,16 +92,7 @@ namespace rectify::app
         return p;
       }
 
-      system::RunOptions run_options(const system::SystemParameters &p) const
-      {
-        system::RunOptions r;
-        r.relative_tolerance         = p.solver.relative_tolerance;
-        r.absolute_tolerance_factor  = p.solver.absolute_tolerance_factor;
-        r.finite_difference_jacobian = p.solver.jacobian == "finite-difference";
-        r.samples_per_cycle          = static_cast<std::size_t>(p.solver.samples_per_cycle);
-        r.max_steps_per_cycle        = static_cast<long>(p.solver.max_steps_per_cycle);
-        return r;
-      }
+      system::RunOptions run_options(const system::SystemParameters &p) const { return system::run_options(p.solver); }
     };
 
     /// Where each valve's R(x) and force area come from, for the echo.
@@ -267,11 +258,11 @@ namespace rectify::app
       if (p.drive.waveform != "sine")
         throw InputError(file.where("drive", "waveform") +
                          ": a sweep needs the sine drive (a recorded waveform has one frequency)");
-      system::SweepOptions s;
-      s.scenario       = scenario;
-      s.current_pp_A   = p.drive.current_pp_A;
-      s.current_bias_A = p.drive.current_bias_A;
-      s.frequencies_Hz = system::frequency_grid(o.from_Hz, o.to_Hz, o.n, o.spacing == "log");
+      if (o.cycles == 0)
+        throw InputError("--cycles 0: must be >= 1");
+      system::SweepOptions s = system::default_sweep_options(
+        p, scenario, system::frequency_grid(o.from_Hz, o.to_Hz, o.n, o.spacing == "log"), {}, o.cycles);
+      s.series.clear();
       std::vector<std::string> names = o.series;
       if (o.ideal_valves)
         names = {"ideal"};
@@ -281,11 +272,6 @@ namespace rectify::app
                   std::vector<std::string>{"dynamic", "ideal", "reed-whatif"};
       for (const auto &n : names)
         s.series.push_back(system::parse_sweep_series(n));
-      if (o.cycles == 0)
-        throw InputError("--cycles 0: must be >= 1");
-      s.run                    = o.run_options(p);
-      s.run.settle             = true;
-      s.run.n_cycles           = o.cycles;
       s.run.settle_tolerance   = o.settle_tolerance;
       if (o.max_startup == 0)
         throw InputError("--max-startup-cycles 0: must be >= 1 (a run of fixed length is `simulate`)");
@@ -294,10 +280,6 @@ namespace rectify::app
         throw InputError("--startup-rtol " + format_number(o.startup_rtol) + ": must be 0 (the rtol, " +
                          format_number(p.solver.relative_tolerance) + ") or in [rtol, 1e-2]");
       s.run.startup_relative_tolerance = o.startup_rtol;
-      // A sweep records no time series: a few samples a cycle serve the
-      // diagnostics (reed openings, chamber pressure); the solution itself
-      // does not depend on them (CVODE interpolates to each sample).
-      s.run.samples_per_cycle  = 16;
       s.jobs                   = o.jobs;
       s.chains                 = o.chains;
       s.quiet                  = o.quiet;

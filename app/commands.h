@@ -45,6 +45,9 @@ namespace rectify::app
   /// `design` (design/): the map set of a valve.
   void register_design_commands(CLI::App &app);
 
+  /// `whatif` (whatif/): many designs' map sets and system answers, one MPI batch.
+  void register_whatif_command(CLI::App &app);
+
   /// `map-thesis` (maps/).
   void register_map_commands(CLI::App &app);
 } // namespace rectify::app

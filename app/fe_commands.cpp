@@ -16,7 +16,8 @@ namespace rectify::app
       {"map-resistance", "R(x) and A_eff(x) over the openings, adaptive in the opening, resumable"},
       {"stiffness", "Linear elasticity of the reed: k_r, deflected shape, modes (deal.II)"},
       {"map-stiffness", "Stiffness and modes over a range of reed thicknesses"},
-      {"design", "One valve design's map set: every FE map the system model reads"}};
+      {"design", "One valve design's map set: every FE map the system model reads"},
+      {"whatif", "Design what-ifs: many designs' map sets and the system's answer, one MPI batch"}};
     return c;
   }
 

@@ -87,66 +87,41 @@ namespace rectify::design
     return maps::hashed_tables(tables);
   }
 
-  DesignResult run_design(const CaseFile &file, const std::filesystem::path &out, const stokes::MpiSession &mpi)
+  ReedStage solve_reed_stage(const CaseFile &file, const std::filesystem::path &reed_dir, bool write_files)
   {
-    const auto start = Clock::now();
-    const bool root  = mpi.rank() == 0;
-    const auto sp    = stiffness::StiffnessParameters::from_case(file);
-    auto       mp    = mesher::MeshParameters::from_case(file);
-    const auto fp    = stokes::FlowParameters::from_case(file);
-    const auto ss    = stokes::SweepSettings::from_case(file);
-    const auto deps  = map_set_provenance(file);
-    const auto reed_dir = out / "reed", partial = out / "partial";
-    // A finished map set of another case in the folder is not overwritten.
-    if (std::filesystem::exists(out / "manifest.json"))
-      {
-        std::ifstream  in(out / "manifest.json");
-        nlohmann::json old;
-        try
-          {
-            old = nlohmann::json::parse(in);
-          }
-        catch (const nlohmann::json::exception &)
-          {
-          }
-        if (!old.contains("depends_on") || old["depends_on"] != deps)
-          throw InputError("'" + out.string() + "' holds a map set made for another case (or not a map set): "
-                           "choose another --out, or remove it");
-      }
-    if (root)
+    const auto t  = Clock::now();
+    const auto sp = stiffness::StiffnessParameters::from_case(file);
+    stiffness::SolveOptions so;
+    if (write_files)
       {
         ensure_directory(reed_dir);
-        ensure_directory(partial);
+        so.vtu_file = reed_dir / "reed.vtu";
       }
-    DesignResult result;
-
-    // 1. The reed: stiffness, modes, the deflected shape under the port load.
-    auto t = Clock::now();
-    stiffness::SolveOptions so;
-    if (root)
-      so.vtu_file = reed_dir / "reed.vtu";
     const auto r      = [&]() {
       const SingleThreadedBlas one_thread;
       return stiffness::solve_reed(sp, so);
     }();
-    const auto bounds = stiffness::reed_bounds(sp);
-    const auto fluid  = stiffness::in_fluid(r, bounds, sp.settings.added_mass_factor);
-    maps::ReedProperties reed;
+    ReedStage rs;
+    rs.bounds = stiffness::reed_bounds(sp);
+    rs.fluid  = stiffness::in_fluid(r, rs.bounds, sp.settings.added_mass_factor);
+    for (const auto &m : r.modes)
+      rs.modes.push_back({m.frequency_Hz, m.kind, m.modal_mass_kg});
+    rs.k_N_per_m     = r.k_N_per_m;
+    rs.plate_mass_kg = r.plate_mass_kg;
+    auto &reed = rs.reed;
     reed.stiffness_N_per_m       = r.k_N_per_m;
     reed.modal_mass_kg           = r.modes.empty() ? 0.0 : r.modes[0].modal_mass_kg;
-    reed.modal_mass_in_fluid_kg  = fluid.modal_mass_kg;
-    reed.effective_mass_eq321_kg = fluid.eq321_mass_kg;
+    reed.modal_mass_in_fluid_kg  = rs.fluid.modal_mass_kg;
+    reed.effective_mass_eq321_kg = rs.fluid.eq321_mass_kg;
     reed.frequency_Hz            = r.modes.empty() ? 0.0 : r.modes[0].frequency_Hz;
-    reed.frequency_in_fluid_Hz   = fluid.frequency_Hz;
+    reed.frequency_in_fluid_Hz   = rs.fluid.frequency_Hz;
     reed.plate_mass_kg           = r.plate_mass_kg;
-    reed.added_mass_kg           = bounds.added_mass_kg;
-    const std::string shape = stiffness::shape_csv(r, sp);
-    result.stiffness_time_s = seconds_since(t);
-    result.k_N_per_m        = r.k_N_per_m;
-    result.f1_in_fluid_Hz   = fluid.frequency_Hz;
-    if (root)
+    reed.added_mass_kg           = rs.bounds.added_mass_kg;
+    rs.shape_csv   = stiffness::shape_csv(r, sp);
+    rs.wall_time_s = seconds_since(t);
+    if (write_files)
       {
-        write_file_atomic(reed_dir / "shape.csv", shape);
+        write_file_atomic(reed_dir / "shape.csv", rs.shape_csv);
         CsvTable beam({"s_m", "phi_beam"});
         const double L = sp.geometry.reed_length_m, a = sp.geometry.port_center_x_m;
         for (int i = 0; i <= 60; ++i)
@@ -161,25 +136,90 @@ namespace rectify::design
                       {{reed_dir / "shape.csv", "s_m", "phi", "FE, mean across the width", "lines", 1e3, 1},
                        {reed_dir / "shape-beam.csv", "s_m", "phi_beam", "beam (point load at the port centre)",
                         "lines", 1e3, 1}}}});
-        std::fprintf(stderr, "design: reed k = %.6g N/m, f1 %.6g Hz in vacuum, %.6g Hz in oil (%.1f s)\n",
-                     r.k_N_per_m, reed.frequency_Hz, fluid.frequency_Hz, result.stiffness_time_s);
+        write_json(reed_dir / "reed.json", rs.to_json());
       }
-    (void)mpi.broadcast({}); // the shape file exists for every process
+    return rs;
+  }
 
-    // 2. The flow over openings, on meshes of the FE shape.
+  nlohmann::json ReedStage::to_json() const
+  {
+    nlohmann::json modes_json = nlohmann::json::array();
+    for (const auto &m : modes)
+      modes_json.push_back({{"frequency_Hz", m.frequency_Hz}, {"kind", m.kind}, {"modal_mass_kg", m.modal_mass_kg}});
+    return {{"reed", reed.to_json()},
+            {"k_N_per_m", k_N_per_m},
+            {"plate_mass_kg", plate_mass_kg},
+            {"modes", modes_json},
+            {"bounds",
+             {{"k_beam_N_per_m", bounds.k_beam},
+              {"k_plate_N_per_m", bounds.k_plate},
+              {"f1_beam_Hz", bounds.f1_beam},
+              {"f1_plate_Hz", bounds.f1_plate},
+              {"added_mass_eq320_kg", bounds.added_mass_kg}}},
+            {"in_fluid",
+             {{"modal_mass_kg", fluid.modal_mass_kg},
+              {"frequency_Hz", fluid.frequency_Hz},
+              {"eq321_mass_kg", fluid.eq321_mass_kg},
+              {"eq321_frequency_Hz", fluid.eq321_frequency_Hz}}},
+            {"shape_hash", content_hash(shape_csv)},
+            {"wall_time_s", wall_time_s}};
+  }
+
+  ReedStage ReedStage::from_json(const nlohmann::json &j, std::string shape_csv_text, const std::string &where)
+  {
+    try
+      {
+        ReedStage rs;
+        rs.reed          = maps::ReedProperties::from_json(j.at("reed"), where);
+        rs.k_N_per_m     = j.at("k_N_per_m").get<double>();
+        rs.plate_mass_kg = j.at("plate_mass_kg").get<double>();
+        for (const auto &m : j.at("modes"))
+          rs.modes.push_back({m.at("frequency_Hz").get<double>(), m.at("kind").get<std::string>(),
+                              m.at("modal_mass_kg").get<double>()});
+        const auto &b = j.at("bounds");
+        rs.bounds = {b.at("k_beam_N_per_m").get<double>(), b.at("k_plate_N_per_m").get<double>(),
+                     b.at("f1_beam_Hz").get<double>(), b.at("f1_plate_Hz").get<double>(),
+                     b.at("added_mass_eq320_kg").get<double>()};
+        const auto &f = j.at("in_fluid");
+        rs.fluid = {f.at("modal_mass_kg").get<double>(), f.at("frequency_Hz").get<double>(),
+                    f.at("eq321_mass_kg").get<double>(), f.at("eq321_frequency_Hz").get<double>()};
+        rs.shape_csv   = std::move(shape_csv_text);
+        rs.wall_time_s = j.at("wall_time_s").get<double>();
+        if (j.at("shape_hash").get<std::string>() != content_hash(rs.shape_csv))
+          throw InputError(where + ": the reed's shape.csv is not the one this record was made with");
+        return rs;
+      }
+    catch (const nlohmann::json::exception &e)
+      {
+        throw InputError(where + ": not a reed record (" + e.what() + ")");
+      }
+  }
+
+  mesher::MeshParameters flow_mesh_parameters(const CaseFile &file, const std::filesystem::path &reed_dir)
+  {
+    auto mp                 = mesher::MeshParameters::from_case(file);
     mp.settings.shape       = "table";
     mp.settings.shape_table = reed_dir / "shape.csv";
-    nlohmann::json fingerprint = {{"depends_on", deps},
-                                  {"reed_shape_hash", content_hash(shape)},
+    return mp;
+  }
+
+  nlohmann::json flow_fingerprint(const CaseFile &file, const std::string &shape_csv)
+  {
+    nlohmann::json fingerprint = {{"depends_on", map_set_provenance(file)},
+                                  {"reed_shape_hash", content_hash(shape_csv)},
                                   {"rectify_version", RECTIFY_VERSION}};
     fingerprint["depends_on"].erase("stiffness"); // the shape's hash stands for it
-    result.sweep = stokes::resistance_sweep(mp, fp, ss, partial, fingerprint, mpi);
-    result.wall_time_s = seconds_since(start);
-    if (!root)
-      return result;
+    return fingerprint;
+  }
 
-    // 3. The map set.
-    const auto &pts = result.sweep.points;
+  DesignResult write_map_set(const CaseFile &file, const std::filesystem::path &out, const ReedStage &rs,
+                             const stokes::SweepResult &sweep, unsigned n_processes, double wall_time_s)
+  {
+    const auto sp   = stiffness::StiffnessParameters::from_case(file);
+    const auto mp   = flow_mesh_parameters(file, out / "reed");
+    const auto ss   = stokes::SweepSettings::from_case(file);
+    const auto deps = map_set_provenance(file);
+    const auto &pts = sweep.points;
     std::vector<double> x{0.0}, R{1e17}, xa, A;
     for (const auto &p : pts)
       {
@@ -188,9 +228,9 @@ namespace rectify::design
       }
     nlohmann::json checks = nlohmann::json::array(), points = nlohmann::json::array(),
                    modes  = nlohmann::json::array();
-    for (const auto &m : r.modes)
+    for (const auto &m : rs.modes)
       modes.push_back({{"frequency_Hz", m.frequency_Hz}, {"kind", m.kind}, {"modal_mass_kg", m.modal_mass_kg}});
-    for (const auto &c : result.sweep.checks)
+    for (const auto &c : sweep.checks)
       checks.push_back({{"from_m", c.from_m}, {"to_m", c.to_m}, {"midpoint_m", c.midpoint_m},
                         {"R_error", c.R_error}, {"A_eff_error", c.A_error}, {"passed", c.passed},
                         {"limited", c.limited}});
@@ -212,27 +252,27 @@ namespace rectify::design
        {{"design", ss.to_json()},
         {"reed_shape", "fe: the stiffness solver's deflection under the " + stiffness::to_string(sp.settings.load) +
                          " load, scaled to the tip opening (reed/shape.csv)"},
-        {"reed_shape_hash", content_hash(shape)},
+        {"reed_shape_hash", content_hash(rs.shape_csv)},
         {"closed_R_Pa_s_per_m3", 1e17},
-        {"n_processes", mpi.size()}}},
+        {"n_processes", n_processes}}},
       {"reed_modes", modes},
       {"points", points},
       {"interpolation_error",
        {{"tolerance", ss.tolerance},
-        {"R_max_rel", result.sweep.max_R_error},
-        {"A_eff_max_rel", result.sweep.max_A_error},
-        {"converged", result.sweep.converged},
+        {"R_max_rel", sweep.max_R_error},
+        {"A_eff_max_rel", sweep.max_A_error},
+        {"converged", sweep.converged},
         {"meaning", "largest miss of the interpolant without a midpoint at that midpoint, over the checks "
                     "that passed: the final map, which includes the midpoints, is at least this close"},
         {"checks", checks}}},
-      {"wall_time_s", seconds_since(start)},
-      {"stiffness_wall_time_s", result.stiffness_time_s}};
+      {"wall_time_s", wall_time_s},
+      {"stiffness_wall_time_s", rs.wall_time_s}};
     const double seated = M_PI * 0.25 * sp.geometry.port_diameter_m * sp.geometry.port_diameter_m;
     nlohmann::json r_meta = {{"source", "rectify design"}, {"closed", "1e17 Pa s/m^3 at x = 0 (the thesis's)"},
                              {"below_first_open_node", "the first interval's power law, capped at the closed value"}};
     maps::MapSet set(maps::ResistanceMap(x, R, (out / "resistance.csv").string(), r_meta,
                                          maps::Interpolation::log_log),
-                     maps::AreaMap(xa, A, (out / "area.csv").string(), {{"source", "rectify design"}}), seated, reed,
+                     maps::AreaMap(xa, A, (out / "area.csv").string(), {{"source", "rectify design"}}), seated, rs.reed,
                      manifest);
     const bool with_loading = !pts.empty() && std::all_of(pts.begin(), pts.end(), [](const auto &p) {
       return p.has_loading();
@@ -282,8 +322,8 @@ namespace rectify::design
           {
             const double xi = ss.from_m * std::pow(ss.to_m / ss.from_m, k / 240.0);
             const auto   v  = set.loading()->evaluate(xi);
-            const double row[7] = {xi, v.damping, v.A_modal, v.added_mass, bounds.added_mass_kg, fluid.eq321_mass_kg,
-                                   reed.modal_mass_kg};
+            const double row[7] = {xi, v.damping, v.A_modal, v.added_mass, rs.bounds.added_mass_kg, rs.fluid.eq321_mass_kg,
+                                   rs.reed.modal_mass_kg};
             lc.add_row(row);
           }
         lc.write(out / "loading-curve.csv");
@@ -318,22 +358,22 @@ namespace rectify::design
     std::ostringstream md;
     md << "# Map set: " << file.name() << "\n\n"
        << "Made by `rectify design` (rectify " << RECTIFY_VERSION << ", " << source_revision() << ") on "
-       << utc_now() << ", " << mpi.size() << " process(es), " << fmt("%.0f", seconds_since(start))
+       << utc_now() << ", " << n_processes << " process(es), " << fmt("%.0f", wall_time_s)
        << " s wall.\n\n## The reed (stiffness solver)\n\n"
        << "| quantity | FE | beam (E) | plate (E') | thesis |\n|---|---:|---:|---:|---:|\n"
-       << "| k_r [N/m] | " << fmt("%.5g", r.k_N_per_m) << " | " << fmt("%.5g", bounds.k_beam) << " | "
-       << fmt("%.5g", bounds.k_plate) << " | 6650 |\n"
-       << "| f1 in vacuum [Hz] | " << fmt("%.5g", reed.frequency_Hz) << " | " << fmt("%.5g", bounds.f1_beam) << " | "
-       << fmt("%.5g", bounds.f1_plate) << " | |\n"
-       << "| f1 in oil, eq. 3.20's added mass [Hz] | " << fmt("%.5g", fluid.frequency_Hz) << " | | | |\n"
-       << "| m_r, eq. 3.21 (x" << sp.settings.added_mass_factor << ") [kg] | " << fmt("%.4g", fluid.eq321_mass_kg)
+       << "| k_r [N/m] | " << fmt("%.5g", rs.k_N_per_m) << " | " << fmt("%.5g", rs.bounds.k_beam) << " | "
+       << fmt("%.5g", rs.bounds.k_plate) << " | 6650 |\n"
+       << "| f1 in vacuum [Hz] | " << fmt("%.5g", rs.reed.frequency_Hz) << " | " << fmt("%.5g", rs.bounds.f1_beam) << " | "
+       << fmt("%.5g", rs.bounds.f1_plate) << " | |\n"
+       << "| f1 in oil, eq. 3.20's added mass [Hz] | " << fmt("%.5g", rs.fluid.frequency_Hz) << " | | | |\n"
+       << "| m_r, eq. 3.21 (x" << sp.settings.added_mass_factor << ") [kg] | " << fmt("%.4g", rs.fluid.eq321_mass_kg)
        << " | | | 3.643e-4 |\n"
-       << "| f1 with eq. 3.21's mass [Hz] | " << fmt("%.5g", fluid.eq321_frequency_Hz) << " | | | 680 |\n\n"
+       << "| f1 with eq. 3.21's mass [Hz] | " << fmt("%.5g", rs.fluid.eq321_frequency_Hz) << " | | | 680 |\n\n"
        << "Modes in vacuum:";
-    for (std::size_t i = 0; i < r.modes.size(); ++i)
-      md << (i ? "," : "") << " " << fmt("%.5g", r.modes[i].frequency_Hz) << " Hz (" << r.modes[i].kind << ")";
-    md << ". Plate mass " << fmt("%.4g", r.plate_mass_kg) << " kg, first-mode mass at the tip "
-       << fmt("%.4g", reed.modal_mass_kg) << " kg, added mass (eq. 3.20) " << fmt("%.4g", bounds.added_mass_kg)
+    for (std::size_t i = 0; i < rs.modes.size(); ++i)
+      md << (i ? "," : "") << " " << fmt("%.5g", rs.modes[i].frequency_Hz) << " Hz (" << rs.modes[i].kind << ")";
+    md << ". Plate mass " << fmt("%.4g", rs.plate_mass_kg) << " kg, first-mode mass at the tip "
+       << fmt("%.4g", rs.reed.modal_mass_kg) << " kg, added mass (eq. 3.20) " << fmt("%.4g", rs.bounds.added_mass_kg)
        << " kg.\n\n"
        << "The flow meshes use the reed's FE shape under the port load (reed/shape.png), not the beam shape.\n\n"
        << "## R(x) and A_eff(x)\n\n"
@@ -342,9 +382,9 @@ namespace rectify::design
        << " um, then geometric midpoints wherever the map's interpolant (log R and A_eff, monotone cubic in log x) "
           "missed the solved midpoint by more than "
        << format_number(ss.tolerance * 100) << " %. " << pts.size() << " openings solved ("
-       << result.sweep.n_resumed << " from a checkpoint); interpolation error achieved: R "
-       << fmt("%.3f", 100 * result.sweep.max_R_error) << " %, A_eff " << fmt("%.3f", 100 * result.sweep.max_A_error)
-       << " %" << (result.sweep.converged ? "" : " (NOT converged: some intervals hit min_ratio or max_openings)")
+       << sweep.n_resumed << " from a checkpoint); interpolation error achieved: R "
+       << fmt("%.3f", 100 * sweep.max_R_error) << " %, A_eff " << fmt("%.3f", 100 * sweep.max_A_error)
+       << " %" << (sweep.converged ? "" : " (NOT converged: some intervals hit min_ratio or max_openings)")
        << ".\n\n| opening [um] | R [Pa s/m^3] | R (dissipation) | thin-gap | Stokes / thin-gap | A_eff [mm^2] | "
           "mass balance | DoFs | iterations | wall [s] |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
     for (const auto &p : pts)
@@ -367,9 +407,9 @@ namespace rectify::design
               "shape, the port shut) and the potential flow. Referred to the tip. The 2x2 map's largest "
               "asymmetry: "
            << fmt("%.1e", max_asymmetry)
-           << " (reciprocity). Eq. 3.20's added mass " << fmt("%.4g", bounds.added_mass_kg)
-           << " kg; eq. 3.21's mass, 2.75 (m_plate + m_added), " << fmt("%.4g", fluid.eq321_mass_kg)
-           << " kg; first mode's mass in vacuum " << fmt("%.4g", reed.modal_mass_kg)
+           << " (reciprocity). Eq. 3.20's added mass " << fmt("%.4g", rs.bounds.added_mass_kg)
+           << " kg; eq. 3.21's mass, 2.75 (m_plate + m_added), " << fmt("%.4g", rs.fluid.eq321_mass_kg)
+           << " kg; first mode's mass in vacuum " << fmt("%.4g", rs.reed.modal_mass_kg)
            << " kg.\n\n| opening [um] | c, port shut [N s/m] | c, fixed dp [N s/m] | A_modal [mm^2] | added mass "
               "[mg] | asymmetry | loading [s] |\n|---:|---:|---:|---:|---:|---:|---:|\n";
         for (const auto &p : pts)
@@ -381,7 +421,67 @@ namespace rectify::design
       }
     set.write(out);
     write_file_atomic(out / "report.md", md.str());
-    result.manifest = set.manifest();
+    DesignResult result;
+    result.sweep            = sweep;
+    result.k_N_per_m        = rs.k_N_per_m;
+    result.f1_in_fluid_Hz   = rs.fluid.frequency_Hz;
+    result.stiffness_time_s = rs.wall_time_s;
+    result.wall_time_s      = wall_time_s;
+    result.manifest         = set.manifest();
     return result;
+  }
+
+  DesignResult run_design(const CaseFile &file, const std::filesystem::path &out, const stokes::MpiSession &mpi)
+  {
+    const auto start = Clock::now();
+    const bool root  = mpi.rank() == 0;
+    const auto fp    = stokes::FlowParameters::from_case(file);
+    const auto ss    = stokes::SweepSettings::from_case(file);
+    const auto deps  = map_set_provenance(file);
+    const auto reed_dir = out / "reed", partial = out / "partial";
+    // A finished map set of another case in the folder is not overwritten.
+    if (std::filesystem::exists(out / "manifest.json"))
+      {
+        std::ifstream  in(out / "manifest.json");
+        nlohmann::json old;
+        try
+          {
+            old = nlohmann::json::parse(in);
+          }
+        catch (const nlohmann::json::exception &)
+          {
+          }
+        if (!old.contains("depends_on") || old["depends_on"] != deps)
+          throw InputError("'" + out.string() + "' holds a map set made for another case (or not a map set): "
+                           "choose another --out, or remove it");
+      }
+    if (root)
+      {
+        ensure_directory(reed_dir);
+        ensure_directory(partial);
+      }
+
+    // 1. The reed: stiffness, modes, the deflected shape under the port load.
+    const ReedStage rs = solve_reed_stage(file, reed_dir, root);
+    if (root)
+      std::fprintf(stderr, "design: reed k = %.6g N/m, f1 %.6g Hz in vacuum, %.6g Hz in oil (%.1f s)\n",
+                   rs.k_N_per_m, rs.reed.frequency_Hz, rs.fluid.frequency_Hz, rs.wall_time_s);
+    (void)mpi.broadcast({}); // the shape file exists for every process
+
+    // 2. The flow over openings, on meshes of the FE shape.
+    const auto mp    = flow_mesh_parameters(file, reed_dir);
+    const auto sweep = stokes::resistance_sweep(mp, fp, ss, partial, flow_fingerprint(file, rs.shape_csv), mpi);
+    if (!root)
+      {
+        DesignResult result;
+        result.sweep            = sweep;
+        result.k_N_per_m        = rs.k_N_per_m;
+        result.f1_in_fluid_Hz   = rs.fluid.frequency_Hz;
+        result.stiffness_time_s = rs.wall_time_s;
+        result.wall_time_s      = seconds_since(start);
+        return result;
+      }
+    // 3. The map set.
+    return write_map_set(file, out, rs, sweep, mpi.size(), seconds_since(start));
   }
 } // namespace rectify::design

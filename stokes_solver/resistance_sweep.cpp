@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <set>
 #include <memory>
 
 #include "common/checkpoint.h"
@@ -108,7 +109,7 @@ namespace rectify::stokes
     const auto         valve   = mesher::mesh_valve(mp, x, false);
     const ReedMotion   motion  = reed_motion(mp);
     const bool         loading = fp.settings.reed_loading == "solve";
-    const StokesResult         r       = solve_stokes(valve.mesh, fp, {}, false, loading ? &motion : nullptr);
+    const StokesResult r = solve_stokes(valve.mesh, fp, {}, false, loading ? &motion : nullptr, mpi.comm());
     OpeningPoint        p;
     p.opening_m                 = x;
     p.R_Pa_s_per_m3             = r.R_pressure_Pa_s_per_m3;
@@ -206,12 +207,6 @@ namespace rectify::stokes
       }
 
       void        extend(std::size_t more) { progress_->extend(more); }
-      /// A planned opening that will not be solved (counted, so the estimate stays right).
-      void        drop_planned()
-      {
-        if (root_)
-          progress_->skip();
-      }
       std::size_t n_reused() const { return n_reused_; } ///< openings taken from the checkpoint so far
 
     private:
@@ -240,30 +235,41 @@ namespace rectify::stokes
     return points;
   }
 
-  SweepResult resistance_sweep(const mesher::MeshParameters &mp, const FlowParameters &fp, const SweepSettings &s,
-                               const std::filesystem::path &dir, const nlohmann::json &fingerprint,
-                               const MpiSession &mpi)
+  std::vector<double> initial_openings(const SweepSettings &s)
   {
-    CheckpointedOpenings           solver(mp, fp, dir, "openings-partial", fingerprint, mpi, "design: openings",
-                                          s.initial_openings);
-    SweepResult                    result;
-    std::map<double, OpeningPoint> solved; // this sweep's points
-    const auto solve = [&](double x) -> const OpeningPoint & { return solved[x] = solver.get(x); };
+    std::vector<double> x;
+    for (unsigned k = 0; k < s.initial_openings; ++k)
+      x.push_back(k + 1 == s.initial_openings ?
+                    s.to_m :
+                    s.from_m * std::pow(s.to_m / s.from_m, static_cast<double>(k) / (s.initial_openings - 1)));
+    return x;
+  }
+
+  SweepPlan plan_resistance_sweep(const SweepSettings &s, const std::map<double, OpeningPoint> &available)
+  {
+    SweepPlan                      plan;
+    std::map<double, OpeningPoint> solved; // this sweep's points, in the order the sweep takes them
     const auto sorted = [&]() {
       std::vector<OpeningPoint> v;
       for (const auto &[x, p] : solved)
         v.push_back(p);
       return v;
     };
+    // Takes the openings of one round from `available`; false (and the
+    // missing ones in the plan) if any is not there.
+    const auto take = [&](const std::vector<double> &round) {
+      for (double x : round)
+        if (!available.contains(x))
+          plan.missing.push_back(x);
+      return plan.missing.empty();
+    };
 
     // The coarse log grid.
-    for (unsigned k = 0; k < s.initial_openings; ++k)
-      {
-        const double x = k + 1 == s.initial_openings ?
-                           s.to_m :
-                           s.from_m * std::pow(s.to_m / s.from_m, static_cast<double>(k) / (s.initial_openings - 1));
-        solve(x);
-      }
+    const auto grid = initial_openings(s);
+    if (!take(grid))
+      return plan;
+    for (double x : grid)
+      solved[x] = available.at(x);
     // Check every interval by its geometric midpoint; split those that fail.
     std::vector<std::pair<double, double>> todo;
     {
@@ -271,31 +277,49 @@ namespace rectify::stokes
       for (std::size_t i = 0; i + 1 < v.size(); ++i)
         todo.emplace_back(v[i].opening_m, v[i + 1].opening_m);
     }
+    const auto too_short = [&](double a, double b, std::size_t n_solved) {
+      return b / a < s.min_ratio * s.min_ratio || n_solved >= s.max_openings;
+    };
     while (!todo.empty())
       {
-        solver.extend(todo.size());
+        // The round's midpoints: known before any of them is solved.
+        std::vector<double> round;
+        {
+          std::set<double> keys;
+          for (const auto &[x, p] : solved)
+            keys.insert(x);
+          for (const auto &[a, b] : todo)
+            if (!too_short(a, b, keys.size()))
+              {
+                round.push_back(std::sqrt(a * b));
+                keys.insert(round.back());
+              }
+        }
+        if (!take(round))
+          return plan;
+        // The checks, in the order of the intervals: each midpoint against
+        // the interpolant through the points solved before it.
         std::vector<std::pair<double, double>> next;
         for (const auto &[a, b] : todo)
           {
-            if (b / a < s.min_ratio * s.min_ratio || solved.size() >= s.max_openings)
+            if (too_short(a, b, solved.size()))
               {
                 // Too short to split, or out of solves: leave it unchecked but say so.
-                result.checks.push_back({a, b, std::sqrt(a * b), 0, 0, false, true});
-                solver.drop_planned();
-                result.converged = false;
+                plan.result.checks.push_back({a, b, std::sqrt(a * b), 0, 0, false, true});
+                plan.result.converged = false;
                 continue;
               }
             const double m = std::sqrt(a * b);
             const auto [R_interp, A_interp] = interpolate_point(sorted(), m);
-            const OpeningPoint &p = solve(m);
+            const OpeningPoint &p = solved[m] = available.at(m);
             const double eR = std::abs(R_interp / p.R_Pa_s_per_m3 - 1);
             const double eA = std::abs(A_interp / p.A_eff_m2 - 1);
             const bool   ok = eR <= s.tolerance && eA <= s.tolerance;
-            result.checks.push_back({a, b, m, eR, eA, ok, false});
+            plan.result.checks.push_back({a, b, m, eR, eA, ok, false});
             if (ok)
               {
-                result.max_R_error = std::max(result.max_R_error, eR);
-                result.max_A_error = std::max(result.max_A_error, eA);
+                plan.result.max_R_error = std::max(plan.result.max_R_error, eR);
+                plan.result.max_A_error = std::max(plan.result.max_A_error, eA);
               }
             else
               {
@@ -305,8 +329,29 @@ namespace rectify::stokes
           }
         todo = std::move(next);
       }
-    result.points    = sorted();
-    result.n_resumed = solver.n_reused();
-    return result;
+    plan.result.points = sorted();
+    return plan;
+  }
+
+  SweepResult resistance_sweep(const mesher::MeshParameters &mp, const FlowParameters &fp, const SweepSettings &s,
+                               const std::filesystem::path &dir, const nlohmann::json &fingerprint,
+                               const MpiSession &mpi)
+  {
+    CheckpointedOpenings           solver(mp, fp, dir, "openings-partial", fingerprint, mpi, "design: openings",
+                                          s.initial_openings);
+    std::map<double, OpeningPoint> solved;
+    for (bool first = true;; first = false)
+      {
+        SweepPlan plan = plan_resistance_sweep(s, solved);
+        if (plan.complete())
+          {
+            plan.result.n_resumed = solver.n_reused();
+            return plan.result;
+          }
+        if (!first)
+          solver.extend(plan.missing.size());
+        for (double x : plan.missing)
+          solved[x] = solver.get(x);
+      }
   }
 } // namespace rectify::stokes

@@ -9,6 +9,7 @@
 
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -106,6 +107,23 @@ namespace rectify::stokes
   SweepResult resistance_sweep(const mesher::MeshParameters &mesh, const FlowParameters &flow,
                                const SweepSettings &settings, const std::filesystem::path &checkpoint_dir,
                                const nlohmann::json &fingerprint, const MpiSession &mpi);
+
+  /// The coarse log grid an adaptive sweep starts from.
+  std::vector<double> initial_openings(const SweepSettings &settings);
+
+  /// Where an adaptive sweep stands, given openings solved so far (any
+  /// superset of what it has asked for): the openings of its next round
+  /// (known before any of them is solved, so they can be solved at once, in
+  /// any order, anywhere), or, when none is missing, its result.
+  /// resistance_sweep is this in a loop; rectify whatif (whatif/) serves
+  /// the rounds of many designs from one queue and gets the same maps.
+  struct SweepPlan
+  {
+    std::vector<double> missing;
+    SweepResult         result; ///< complete() only
+    bool                complete() const { return missing.empty(); }
+  };
+  SweepPlan plan_resistance_sweep(const SweepSettings &settings, const std::map<double, OpeningPoint> &solved);
 
   /// The interpolation the map set uses, through `points` (by opening),
   /// evaluated at x: {R, A_eff}.

@@ -18,6 +18,8 @@
 #include <deal.II/base/function.h>
 #include <deal.II/base/index_set.h>
 #include <deal.II/base/mpi.h>
+#include <deal.II/base/multithread_info.h>
+#include <deal.II/lac/vector_memory.h>
 #include <deal.II/base/quadrature_lib.h>
 #include <deal.II/base/utilities.h>
 #include <deal.II/distributed/fully_distributed_tria.h>
@@ -48,6 +50,9 @@
 #include <memory>
 #include <stdexcept>
 
+#include <petscsys.h>
+#include <slepcsys.h>
+
 #include "mesher/to_dealii.h"
 #include "stokes_solver/block_solver.h"
 #include "stokes_solver/potential_flow.h"
@@ -56,21 +61,68 @@ namespace rectify::stokes
 {
   using namespace dealii;
 
+  namespace
+  {
+    /// What deal.II's MPI_InitFinalize does (MPI, then SLEPc and PETSc on
+    /// it, one thread for deal.II's own tasks; the reverse at the end), at
+    /// MPI_THREAD_MULTIPLE, which MPI_InitFinalize does not ask for.
+    class MultipleThreadsInitFinalize
+    {
+    public:
+      MultipleThreadsInitFinalize()
+      {
+        int provided = 0;
+        MPI_Init_thread(nullptr, nullptr, MPI_THREAD_MULTIPLE, &provided);
+        if (provided < MPI_THREAD_MULTIPLE)
+          {
+            MPI_Finalize();
+            throw std::runtime_error("this MPI library does not provide MPI_THREAD_MULTIPLE, which rectify whatif "
+                                     "needs (its scheduler answers while its process solves)");
+          }
+        SlepcInitialize(nullptr, nullptr, nullptr, nullptr);
+        PetscPopSignalHandler();
+        MultithreadInfo::set_thread_limit(1);
+      }
+      ~MultipleThreadsInitFinalize()
+      {
+        GrowingVectorMemory<PETScWrappers::MPI::Vector>::release_unused_memory();
+        SlepcFinalize();
+        MPI_Finalize();
+      }
+      MultipleThreadsInitFinalize(const MultipleThreadsInitFinalize &)            = delete;
+      MultipleThreadsInitFinalize &operator=(const MultipleThreadsInitFinalize &) = delete;
+    };
+  } // namespace
+
   struct MpiSession::Impl
   {
-    int                               argc = 1;
-    char                              name[8] = "rectify";
-    char                             *argv_storage[2] = {name, nullptr};
-    char                            **argv = argv_storage;
-    Utilities::MPI::MPI_InitFinalize  mpi{argc, argv, 1};
+    explicit Impl(Threads threads)
+    {
+      if (threads == Threads::multiple)
+        multiple = std::make_unique<MultipleThreadsInitFinalize>();
+      else
+        serialized = std::make_unique<Utilities::MPI::MPI_InitFinalize>(argc, argv, 1);
+    }
+    int                                               argc = 1;
+    char                                              name[8] = "rectify";
+    char                                             *argv_storage[2] = {name, nullptr};
+    char                                            **argv = argv_storage;
+    std::unique_ptr<Utilities::MPI::MPI_InitFinalize> serialized;
+    std::unique_ptr<MultipleThreadsInitFinalize>      multiple;
   };
-  MpiSession::MpiSession() : impl_(new Impl) {}
+  MpiSession::MpiSession(Threads threads) : impl_(new Impl(threads)), comm_(MPI_COMM_WORLD) {}
+  MpiSession::MpiSession(std::nullptr_t, MPI_Comm comm) : impl_(nullptr), comm_(comm) {}
+  MpiSession::MpiSession(MpiSession &&other) noexcept : impl_(other.impl_), comm_(other.comm_)
+  {
+    other.impl_ = nullptr;
+  }
+  MpiSession MpiSession::on(MPI_Comm comm) { return MpiSession(nullptr, comm); }
   MpiSession::~MpiSession() { delete impl_; }
-  unsigned MpiSession::rank() const { return Utilities::MPI::this_mpi_process(MPI_COMM_WORLD); }
-  unsigned MpiSession::size() const { return Utilities::MPI::n_mpi_processes(MPI_COMM_WORLD); }
+  unsigned MpiSession::rank() const { return Utilities::MPI::this_mpi_process(comm_); }
+  unsigned MpiSession::size() const { return Utilities::MPI::n_mpi_processes(comm_); }
   std::vector<double> MpiSession::broadcast(std::vector<double> values) const
   {
-    return Utilities::MPI::broadcast(MPI_COMM_WORLD, values, 0);
+    return Utilities::MPI::broadcast(comm_, values, 0);
   }
 
   namespace
@@ -213,7 +265,7 @@ namespace rectify::stokes
     {
     public:
       StokesProblem(const mesher::TetMesh &mesh, const FlowParameters &parameters, bool verbose,
-                    const ReedMotion *motion);
+                    const ReedMotion *motion, MPI_Comm comm);
       StokesResult run(const std::filesystem::path &vtu_dir);
 
     private:
@@ -287,7 +339,7 @@ namespace rectify::stokes
     };
 
     StokesProblem::StokesProblem(const mesher::TetMesh &mesh, const FlowParameters &parameters, bool verbose,
-                                 const ReedMotion *motion)
+                                 const ReedMotion *motion, MPI_Comm comm)
       : mesh_(mesh)
       , settings_(parameters.settings)
       , mu_(parameters.fluid.viscosity_Pa_s)
@@ -295,7 +347,7 @@ namespace rectify::stokes
       , Q_(parameters.settings.flow_rate_m3_per_s)
       , verbose_(verbose)
       , motion_(motion)
-      , comm_(MPI_COMM_WORLD)
+      , comm_(comm)
       , n_processes_(Utilities::MPI::n_mpi_processes(comm_))
       , root_(Utilities::MPI::this_mpi_process(comm_) == 0)
       , inlet_(inlet_frame(mesh))
@@ -977,7 +1029,8 @@ namespace rectify::stokes
   } // namespace
 
   StokesResult solve_stokes(const mesher::TetMesh &mesh, const FlowParameters &parameters,
-                            const std::filesystem::path &vtu_dir, bool verbose, const ReedMotion *motion)
+                            const std::filesystem::path &vtu_dir, bool verbose, const ReedMotion *motion,
+                            MPI_Comm comm)
   {
     const auto  &s  = parameters.settings;
     const double mu = parameters.fluid.viscosity_Pa_s;
@@ -998,7 +1051,7 @@ namespace rectify::stokes
       throw InputError("the mesh has no outlet (no boundary face with id 2)");
     if (motion != nullptr && !motion->shape)
       throw InputError("the reed's motion for the fluid loading has no shape");
-    StokesProblem problem(mesh, parameters, verbose, motion); // throws InputError without an inlet
+    StokesProblem problem(mesh, parameters, verbose, motion, comm); // throws InputError without an inlet
     return problem.run(vtu_dir);
   }
 

@@ -3,6 +3,8 @@
 // deal.II 9.4 with PETSc, in parallel with MPI.
 #pragma once
 
+#include <mpi.h>
+
 #include <array>
 #include <filesystem>
 #include <functional>
@@ -16,20 +18,40 @@
 namespace rectify::stokes
 {
   /// Starts MPI and PETSc (deal.II's MPI_InitFinalize) for as long as it
-  /// lives; works without mpirun (one process).
+  /// lives; works without mpirun (one process). Its solves run on
+  /// MPI_COMM_WORLD, or on the communicator of a session made by `on`.
   class MpiSession
   {
   public:
-    MpiSession();
+    /// MPI's thread level: `multiple` for a process where one thread
+    /// schedules (MPI calls) while another solves (rectify whatif).
+    enum class Threads
+    {
+      serialized,
+      multiple
+    };
+    explicit MpiSession(Threads threads = Threads::serialized);
     ~MpiSession();
+    MpiSession(MpiSession &&other) noexcept;
+    MpiSession(const MpiSession &)            = delete;
+    MpiSession &operator=(const MpiSession &) = delete;
+    MpiSession &operator=(MpiSession &&)      = delete;
+
+    /// A session on `comm` (a sub-communicator of a running session's): it
+    /// neither starts nor stops MPI, and does not own `comm`.
+    static MpiSession on(MPI_Comm comm);
+
+    MPI_Comm comm() const { return comm_; }
     unsigned rank() const;
     unsigned size() const;
     /// Every process gets the root's `values`.
     std::vector<double> broadcast(std::vector<double> values) const;
 
   private:
+    MpiSession(std::nullptr_t, MPI_Comm comm);
     struct Impl;
-    Impl *impl_;
+    Impl    *impl_;
+    MPI_Comm comm_;
   };
 
   /// What the fluid loading needs to know of the reed's motion: the
@@ -119,10 +141,11 @@ namespace rectify::stokes
   /// Throws InputError for bad parameters or a mesh without inlet or outlet,
   /// std::runtime_error if the solver does not converge.
   /// With `motion`, also the reed's fluid loading (result.loading; of the
-  /// Stokes flow, before any Navier-Stokes steps).
+  /// Stokes flow, before any Navier-Stokes steps). Every process of `comm`
+  /// calls it together.
   StokesResult solve_stokes(const mesher::TetMesh &mesh, const FlowParameters &parameters,
                             const std::filesystem::path &vtu_dir = {}, bool verbose = false,
-                            const ReedMotion *motion = nullptr);
+                            const ReedMotion *motion = nullptr, MPI_Comm comm = MPI_COMM_WORLD);
 
   /// The added mass alone (the potential flow of FluidLoading) on any mesh
   /// with an outlet and a reed: rho integral |grad phi|^2, per unit tip

@@ -25,6 +25,17 @@ namespace rectify::system
             {"reinitialisations", s.reinitialisations}};
   }
 
+  RunOptions run_options(const SolverParameters &solver)
+  {
+    RunOptions r;
+    r.relative_tolerance         = solver.relative_tolerance;
+    r.absolute_tolerance_factor  = solver.absolute_tolerance_factor;
+    r.finite_difference_jacobian = solver.jacobian == "finite-difference";
+    r.samples_per_cycle          = static_cast<std::size_t>(solver.samples_per_cycle);
+    r.max_steps_per_cycle        = static_cast<long>(solver.max_steps_per_cycle);
+    return r;
+  }
+
   nlohmann::json RunResult::to_json() const
   {
     return {{"frequency_Hz", frequency_Hz},

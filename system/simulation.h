@@ -36,6 +36,9 @@ namespace rectify::system
     std::function<void(std::size_t, std::size_t)> on_cycle;
   };
 
+  /// The case's [solver] settings as run options (the rest at their defaults).
+  RunOptions run_options(const SolverParameters &solver);
+
   /// Where a run starts when not from rest: the continuous state and each
   /// valve's discrete state (closed on its seat). A state taken at the end of
   /// a whole cycle of a sine drive is at the drive's phase 0, where a run

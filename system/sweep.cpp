@@ -247,6 +247,27 @@ namespace rectify::system
     }
   } // namespace
 
+  SweepOptions default_sweep_options(const SystemParameters &p, Scenario scenario, std::vector<double> frequencies_Hz,
+                                     SweepSeries series, std::size_t n_cycles)
+  {
+    SweepOptions s;
+    s.scenario             = scenario;
+    s.current_pp_A         = p.drive.current_pp_A;
+    s.current_bias_A       = p.drive.current_bias_A;
+    s.frequencies_Hz       = std::move(frequencies_Hz);
+    s.series               = {std::move(series)};
+    s.run                  = run_options(p.solver);
+    s.run.settle           = true;
+    s.run.n_cycles         = n_cycles;
+    s.run.settle_tolerance = 2e-3;
+    s.run.max_startup_cycles = 1000;
+    // A sweep records no time series: a few samples a cycle serve the
+    // diagnostics (reed openings, chamber pressure); the solution itself
+    // does not depend on them (CVODE interpolates to each sample).
+    s.run.samples_per_cycle = 16;
+    return s;
+  }
+
   SweepResult run_sweep(const SystemParameters &parameters, const SweepOptions &options,
                         const std::filesystem::path &out_dir)
   {

@@ -57,6 +57,15 @@ namespace rectify::test_support
     return nlohmann::json::parse(std::ifstream(out / "summary.json"));
   }
 
+  /// "mpirun -np N " for a command line. This test program runs under MPI
+  /// itself (a singleton): mpirun must not see its environment.
+  inline std::string mpirun(int n)
+  {
+    return "for v in $(env | grep -o '^\\(OMPI\\|PMIX\\|OPAL\\)[A-Za-z0-9_]*'); do unset $v; done; "
+           "mpirun --allow-run-as-root --oversubscribe -np " +
+           std::to_string(n) + " ";
+  }
+
   inline std::string reference_text()
   {
     std::ifstream     in(reference_case_path());

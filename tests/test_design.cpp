@@ -34,14 +34,6 @@ namespace
     std::ifstream in(path);
     return nlohmann::json::parse(in);
   }
-
-  std::string mpirun(int n)
-  {
-    // this test program runs under MPI itself (singleton): mpirun must not see its environment
-    return "for v in $(env | grep -o '^\\(OMPI\\|PMIX\\|OPAL\\)[A-Za-z0-9_]*'); do unset $v; done; "
-           "mpirun --allow-run-as-root --oversubscribe -np " +
-           std::to_string(n) + " ";
-  }
 } // namespace
 
 TEST(Design, MapSetInterpolatesExtraSolvesTwoProcessesAgreeAndItResumes)

@@ -133,7 +133,7 @@ TEST(MeasuredRun, BadDataNamesFileRowAndColumn)
 
 #include "cli_helpers.h"
 #include "model_helpers.h"
-#include "diagnosis/case_edit.h"
+#include "common/case_edit.h"
 #include "diagnosis/effect.h"
 #include "diagnosis/observation.h"
 #include "diagnosis/residuals.h"

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-namespace rectify::diagnosis
+namespace rectify
 {
   struct CaseEntry
   {
@@ -20,4 +20,4 @@ namespace rectify::diagnosis
   /// (valves.resistance_map, reed.properties_map, drive.waveform).
   std::string edit_case_text(const std::string &text, const std::filesystem::path &base_dir,
                              const std::vector<CaseEntry> &entries);
-} // namespace rectify::diagnosis
+} // namespace rectify

@@ -1,9 +1,9 @@
-#include "diagnosis/case_edit.h"
+#include "common/case_edit.h"
 
 #include <regex>
 #include <sstream>
 
-namespace rectify::diagnosis
+namespace rectify
 {
   namespace
   {
@@ -94,4 +94,4 @@ namespace rectify::diagnosis
         }
     return result;
   }
-} // namespace rectify::diagnosis
+} // namespace rectify
