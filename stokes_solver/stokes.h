@@ -3,6 +3,14 @@
 // deal.II 9.4 with PETSc, in parallel with MPI.
 #pragma once
 
+// MPI's C interface only: the C++ bindings (deprecated) would put static
+// objects into every user of this header, the system-only front end too.
+#ifndef OMPI_SKIP_MPICXX
+#  define OMPI_SKIP_MPICXX 1
+#endif
+#ifndef MPICH_SKIP_MPICXX
+#  define MPICH_SKIP_MPICXX 1
+#endif
 #include <mpi.h>
 
 #include <array>

@@ -19,15 +19,8 @@ using namespace rectify::test_support;
 
 namespace
 {
-  // A coarse flow mesh (direct solver: the -np 1 / -np 2 comparison is exact)
-  // and a coarse reed; openings 10-300 um, 2 % interpolation tolerance.
-  const std::string coarse_case = "[mesh]\nsize_reed_m = 0.5e-3\nsize_far_m = 1.5e-3\nstation_spacing_m = 0.4e-3\n"
-                                  "gap_layers = 2\nreed_layers = 1\nabove_layers = 1\nport_layer_m = 1e-3\n"
-                                  "[flow]\nsolver = \"direct\"\n"
-                                  "[stiffness]\ncells_along_length = 12\ncells_across_width = 10\n"
-                                  "cells_through_thickness = 1\nn_modes = 1\n"
-                                  "[design]\nopenings_from_m = 10e-6\nopenings_to_m = 300e-6\ninitial_openings = 3\n"
-                                  "tolerance = 0.02\n";
+  // The coarse valve, 2 % interpolation tolerance.
+  const std::string coarse_case = coarse_valve_case("0.02");
 
   nlohmann::json read_json(const std::filesystem::path &path)
   {

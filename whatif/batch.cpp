@@ -259,6 +259,8 @@ namespace rectify::whatif
           const auto a = velocity_answer(f, v);
           answer["peak_velocity_m_per_s"]      = a.peak_velocity_m_per_s;
           answer["peak_velocity_frequency_Hz"] = a.peak_frequency_Hz;
+          answer["highest_velocity_m_per_s"]      = a.highest_velocity_m_per_s;
+          answer["highest_velocity_frequency_Hz"] = a.highest_frequency_Hz;
           answer["first_reversal_Hz"]          = std::isfinite(a.first_reversal_Hz) ? nlohmann::json(a.first_reversal_Hz) :
                                                                                      nlohmann::json(nullptr);
           answer["current_pp_A"]   = s.current_pp_A;
@@ -450,7 +452,10 @@ namespace rectify::whatif
             case JobKind::opening:
               s.running.erase(job.x);
               if (ok)
-                s.solved = read_openings(paths_.work(job.hash));
+                {
+                  s.solved = read_openings(paths_.work(job.hash));
+                  s.plan.reset();
+                }
               break;
             case JobKind::map_set:
               s.assembling = false;
@@ -490,6 +495,9 @@ namespace rectify::whatif
         std::map<double, stokes::OpeningPoint> solved;
         std::set<double>                       running;
         std::string                            failure;
+        /// The plan for `solved` (made again only when an opening is added:
+        /// a queue of many designs asks for it at every dispatch).
+        std::optional<stokes::SweepPlan>       plan;
       };
       struct DesignState
       {
@@ -509,7 +517,9 @@ namespace rectify::whatif
           }
         if (s.assembling)
           return std::nullopt;
-        const auto plan = stokes::plan_resistance_sweep(designs_[s.design].openings, s.solved);
+        if (!s.plan)
+          s.plan = stokes::plan_resistance_sweep(designs_[s.design].openings, s.solved);
+        const auto &plan = *s.plan;
         if (plan.complete())
           {
             if (!s.running.empty())
@@ -760,10 +770,20 @@ namespace rectify::whatif
     void write_summary(const BatchSettings &bs, const std::vector<DesignCase> &designs, const Paths &paths)
     {
       const auto keys = design_keys(bs.designs);
+      std::set<std::string> varying; // keys set to more than one value: the axes
+      for (const auto &k : keys)
+        {
+          std::set<std::string> distinct;
+          for (const auto &dc : designs)
+            distinct.insert(dc.design.values().value(k, nlohmann::json()).dump());
+          if (distinct.size() > 1)
+            varying.insert(k);
+        }
       const std::vector<std::string> numeric_columns = {
         "k_r_N_per_m", "f1_vacuum_Hz", "f1_oil_Hz", "m_r_eq321_kg", "R_10um_Pa_s_per_m3", "R_100um_Pa_s_per_m3",
-        "A_eff_100um_m2", "map_openings", "peak_velocity_m_per_s", "peak_velocity_frequency_Hz", "bandwidth_Hz",
-        "stored_pressure_low_Pa", "half_pressure_frequency_Hz"};
+        "A_eff_100um_m2", "map_openings", "bandwidth_Hz", "peak_velocity_m_per_s", "peak_velocity_frequency_Hz",
+        "highest_velocity_m_per_s", "highest_velocity_frequency_Hz", "stored_pressure_low_Pa",
+        "half_pressure_frequency_Hz"};
       std::ostringstream csv;
       csv << "design";
       for (const auto &k : keys)
@@ -837,30 +857,45 @@ namespace rectify::whatif
                   v["A_eff_100um_m2"]      = set.area().evaluate(100e-6).area;
                 }
               v["map_openings"] = static_cast<double>(set.manifest().at("points").size());
-              curves.emplace_back(paths.cached(h) / "map-curve.csv", dc.design.name);
+              std::string title = dc.design.name;
+              for (std::size_t e = 0; e < dc.design.entries.size(); ++e)
+                if (varying.contains(dc.design.entries[e].table + "." + dc.design.entries[e].key))
+                  title += " " + dc.design.entries[e].key + "=" + dc.design.text_values[e];
+              curves.emplace_back(paths.cached(h) / "map-curve.csv", title);
               row["map_set"] = paths.cached(h).string();
             }
-          for (const char *kind : {"velocity", "pressure"})
+          bool answered[2] = {false, false};
+          for (const std::string kind : {"velocity", "pressure"})
             {
-              const auto file = paths.design(dc.design.name) / kind / "answer.json";
-              if (!fs::exists(file))
+              // The answers from the sweep's table (answer.json marks the job finished).
+              const auto dir = paths.design(dc.design.name) / kind;
+              if (!fs::exists(dir / "answer.json"))
                 continue;
-              const auto a = read_json_file(file);
-              const auto get = [&](const char *k) { return a.at(k).is_null() ? nan : a.at(k).get<double>(); };
-              if (std::string(kind) == "velocity")
+              const auto          sweep = read_csv(dir / "sweep.csv");
+              std::vector<double> f, y;
+              for (const auto &r : sweep.rows)
+                if (std::isfinite(r[1]))
+                  f.push_back(r[0]), y.push_back(r[1]);
+              if (kind == "velocity")
                 {
-                  v["peak_velocity_m_per_s"]      = get("peak_velocity_m_per_s");
-                  v["peak_velocity_frequency_Hz"] = get("peak_velocity_frequency_Hz");
-                  v["bandwidth_Hz"]               = get("first_reversal_Hz");
+                  const auto a                       = velocity_answer(f, y);
+                  v["peak_velocity_m_per_s"]         = a.peak_velocity_m_per_s;
+                  v["peak_velocity_frequency_Hz"]    = a.peak_frequency_Hz;
+                  v["highest_velocity_m_per_s"]      = a.highest_velocity_m_per_s;
+                  v["highest_velocity_frequency_Hz"] = a.highest_frequency_Hz;
+                  v["bandwidth_Hz"]                  = a.first_reversal_Hz;
                 }
               else
                 {
-                  v["stored_pressure_low_Pa"]     = get("low_frequency_pressure_Pa");
-                  v["half_pressure_frequency_Hz"] = get("half_pressure_frequency_Hz");
+                  const auto a                    = pressure_answer(f, y);
+                  v["stored_pressure_low_Pa"]     = a.low_frequency_pressure_Pa;
+                  v["half_pressure_frequency_Hz"] = a.half_pressure_frequency_Hz;
                 }
-              row[kind] = a;
+              answered[kind == "velocity" ? 0 : 1] = true;
+              row[kind + "_points"]        = sweep.rows.size();
+              row[kind + "_failed_points"] = sweep.rows.size() - f.size();
             }
-          if (status == "ok" && (!paths.map_set_done(h) || !row.contains("velocity") || !row.contains("pressure")))
+          if (status == "ok" && (!paths.map_set_done(h) || !answered[0] || !answered[1]))
             add_failure("batch", "not finished");
           csv << dc.design.name;
           const auto values = dc.design.values();
@@ -896,7 +931,10 @@ namespace rectify::whatif
                   {"batch", bs.definition()},
                   {"columns",
                    {{"bandwidth_Hz", "the loaded sweep's first velocity reversal (linear between the points around it)"},
-                    {"peak_velocity_m_per_s", "the loaded sweep's largest mean output velocity, at peak_velocity_frequency_Hz"},
+                    {"peak_velocity_m_per_s",
+                     "the loaded sweep's largest mean output velocity below its first reversal (the usable band), at "
+                     "peak_velocity_frequency_Hz"},
+                    {"highest_velocity_m_per_s", "the largest anywhere in the sweep (a band above a reversal can be higher)"},
                     {"half_pressure_frequency_Hz",
                      "the no-flow sweep's first frequency where the stored pressure has fallen to half of its value at "
                      "the lowest frequency (linear in log f)"},
@@ -912,6 +950,8 @@ namespace rectify::whatif
       const fs::path data = plots / "designs.csv";
       for (const auto &k : keys)
         {
+          if (!varying.contains(k))
+            continue;
           double            scale = 1;
           const std::string label = axis_label(k, scale);
           std::string       file  = k;
@@ -924,7 +964,8 @@ namespace rectify::whatif
                           scale, 1},
                          {data, k, "peak_velocity_frequency_Hz", "peak velocity's frequency", "linespoints", scale, 1}}},
                        {"Peak mean output velocity (loaded)", label, "velocity [mm/s]", false, false,
-                        {{data, k, "peak_velocity_m_per_s", "peak velocity", "linespoints", scale, 1e3}}},
+                        {{data, k, "peak_velocity_m_per_s", "below the first reversal", "linespoints", scale, 1e3},
+                         {data, k, "highest_velocity_m_per_s", "anywhere in the sweep", "linespoints", scale, 1e3}}},
                        {"Reed stiffness k_r (FE)", label, "k_r [N/m]", true, true,
                         {{data, k, "k_r_N_per_m", "k_r", "linespoints", scale, 1}}},
                        {"Reed's first mode (FE)", label, "f1 [Hz]", true, true,
@@ -936,7 +977,7 @@ namespace rectify::whatif
           std::vector<PlotSeries> r, a;
           for (const auto &[file, title] : curves)
             {
-              const fs::path copy = plots / ("map-curve-" + title + ".csv");
+              const fs::path copy = plots / ("map-curve-" + title.substr(0, title.find(' ')) + ".csv");
               write_file_atomic(copy, read_text(file));
               r.push_back({copy, "opening_m", "R_Pa_s_per_m3", title, "lines", 1e6, 1});
               a.push_back({copy, "opening_m", "A_eff_m2", title, "lines", 1e6, 1e6});
@@ -1078,21 +1119,28 @@ namespace rectify::whatif
   VelocityAnswer velocity_answer(const std::vector<double> &f, const std::vector<double> &v)
   {
     VelocityAnswer a;
-    a.first_reversal_Hz = std::nan("");
+    const double   nan = std::nan("");
+    a.first_reversal_Hz = nan;
     if (f.empty())
       {
-        a.peak_velocity_m_per_s = a.peak_frequency_Hz = std::nan("");
+        a.peak_velocity_m_per_s = a.peak_frequency_Hz = a.highest_velocity_m_per_s = a.highest_frequency_Hz = nan;
         return a;
       }
-    const auto peak         = std::max_element(v.begin(), v.end()) - v.begin();
-    a.peak_velocity_m_per_s = v[static_cast<std::size_t>(peak)];
-    a.peak_frequency_Hz     = f[static_cast<std::size_t>(peak)];
+    std::size_t band_end = f.size(); // the points below the first reversal
     for (std::size_t i = 1; i < f.size(); ++i)
       if (v[i - 1] > 0 && v[i] <= 0)
         {
           a.first_reversal_Hz = f[i - 1] + (f[i] - f[i - 1]) * v[i - 1] / (v[i - 1] - v[i]);
+          band_end            = i;
           break;
         }
+    const auto peak = static_cast<std::size_t>(std::max_element(v.begin(), v.begin() + static_cast<long>(band_end)) -
+                                               v.begin());
+    const auto highest = static_cast<std::size_t>(std::max_element(v.begin(), v.end()) - v.begin());
+    a.peak_velocity_m_per_s    = v[peak];
+    a.peak_frequency_Hz        = f[peak];
+    a.highest_velocity_m_per_s = v[highest];
+    a.highest_frequency_Hz     = f[highest];
     return a;
   }
 

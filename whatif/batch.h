@@ -93,11 +93,15 @@ namespace rectify::whatif
   /// The system's answers to a velocity sweep (ascending frequencies).
   struct VelocityAnswer
   {
-    double peak_velocity_m_per_s = 0, peak_frequency_Hz = 0;
     /// The first frequency where the mean velocity turns from positive to
     /// not positive, linear between the two points around it; NaN if it
     /// never does in the range.
     double first_reversal_Hz = 0;
+    /// The largest mean velocity below the first reversal (the usable band;
+    /// the whole sweep if it never reverses), and its frequency.
+    double peak_velocity_m_per_s = 0, peak_frequency_Hz = 0;
+    /// The largest anywhere in the sweep (a band above a reversal can be higher).
+    double highest_velocity_m_per_s = 0, highest_frequency_Hz = 0;
   };
   VelocityAnswer velocity_answer(const std::vector<double> &frequencies_Hz, const std::vector<double> &velocities);
 
