@@ -261,8 +261,7 @@ namespace rectify::app
       if (o.cycles == 0)
         throw InputError("--cycles 0: must be >= 1");
       system::SweepOptions s = system::default_sweep_options(
-        p, scenario, system::frequency_grid(o.from_Hz, o.to_Hz, o.n, o.spacing == "log"), {}, o.cycles);
-      s.series.clear();
+        p, scenario, system::frequency_grid(o.from_Hz, o.to_Hz, o.n, o.spacing == "log"), o.cycles);
       std::vector<std::string> names = o.series;
       if (o.ideal_valves)
         names = {"ideal"};

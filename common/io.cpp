@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <ctime>
 #include <fcntl.h>
 #include <fstream>
 #include <sstream>
@@ -13,6 +14,14 @@
 
 namespace rectify
 {
+  std::string utc_now()
+  {
+    const std::time_t t = std::time(nullptr);
+    char              buf[32];
+    std::strftime(buf, sizeof(buf), "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
+    return buf;
+  }
+
   void write_file_atomic(const std::filesystem::path &path, const std::string &content)
   {
     const std::filesystem::path tmp = path.string() + ".tmp." + std::to_string(::getpid());

@@ -19,6 +19,9 @@ namespace rectify
   /// Creates the output folder (and parents); a clear error if it cannot.
   void ensure_directory(const std::filesystem::path &dir);
 
+  /// The time now in UTC, ISO 8601 to the second ("2026-11-24T07:33:20Z"): provenance and logs.
+  std::string utc_now();
+
   /// A 64-bit FNV-1a hash of `content`, as 16 hex digits: detects a changed
   /// table or setting (provenance), not a tampered one.
   std::string content_hash(const std::string &content);

@@ -5,7 +5,6 @@
 #include <dlfcn.h>
 #include <cmath>
 #include <cstdio>
-#include <ctime>
 #include <fstream>
 #include <sstream>
 
@@ -57,12 +56,15 @@ namespace rectify::design
       int previous_ = 1;
     };
 
-    std::string utc_now()
+    DesignResult design_result(const ReedStage &rs, const stokes::SweepResult &sweep, double wall_time_s)
     {
-      const std::time_t t = std::time(nullptr);
-      char              buf[32];
-      std::strftime(buf, sizeof(buf), "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
-      return buf;
+      DesignResult r;
+      r.sweep            = sweep;
+      r.k_N_per_m        = rs.k_N_per_m;
+      r.f1_in_fluid_Hz   = rs.fluid.frequency_Hz;
+      r.stiffness_time_s = rs.wall_time_s;
+      r.wall_time_s      = wall_time_s;
+      return r;
     }
 
     std::string fmt(const char *format, double v)
@@ -213,7 +215,8 @@ namespace rectify::design
   }
 
   DesignResult write_map_set(const CaseFile &file, const std::filesystem::path &out, const ReedStage &rs,
-                             const stokes::SweepResult &sweep, unsigned n_processes, double wall_time_s)
+                             const stokes::SweepResult &sweep, unsigned n_processes, double wall_time_s,
+                             const std::string &made_by)
   {
     const auto sp   = stiffness::StiffnessParameters::from_case(file);
     const auto mp   = flow_mesh_parameters(file, out / "reed");
@@ -357,9 +360,8 @@ namespace rectify::design
     // The report.
     std::ostringstream md;
     md << "# Map set: " << file.name() << "\n\n"
-       << "Made by `rectify design` (rectify " << RECTIFY_VERSION << ", " << source_revision() << ") on "
-       << utc_now() << ", " << n_processes << " process(es), " << fmt("%.0f", wall_time_s)
-       << " s wall.\n\n## The reed (stiffness solver)\n\n"
+       << "Made by " << made_by << " (rectify " << RECTIFY_VERSION << ", " << source_revision() << ") on "
+       << utc_now() << ".\n\n## The reed (stiffness solver)\n\n"
        << "| quantity | FE | beam (E) | plate (E') | thesis |\n|---|---:|---:|---:|---:|\n"
        << "| k_r [N/m] | " << fmt("%.5g", rs.k_N_per_m) << " | " << fmt("%.5g", rs.bounds.k_beam) << " | "
        << fmt("%.5g", rs.bounds.k_plate) << " | 6650 |\n"
@@ -421,13 +423,8 @@ namespace rectify::design
       }
     set.write(out);
     write_file_atomic(out / "report.md", md.str());
-    DesignResult result;
-    result.sweep            = sweep;
-    result.k_N_per_m        = rs.k_N_per_m;
-    result.f1_in_fluid_Hz   = rs.fluid.frequency_Hz;
-    result.stiffness_time_s = rs.wall_time_s;
-    result.wall_time_s      = wall_time_s;
-    result.manifest         = set.manifest();
+    DesignResult result = design_result(rs, sweep, wall_time_s);
+    result.manifest     = set.manifest();
     return result;
   }
 
@@ -472,16 +469,11 @@ namespace rectify::design
     const auto mp    = flow_mesh_parameters(file, reed_dir);
     const auto sweep = stokes::resistance_sweep(mp, fp, ss, partial, flow_fingerprint(file, rs.shape_csv), mpi);
     if (!root)
-      {
-        DesignResult result;
-        result.sweep            = sweep;
-        result.k_N_per_m        = rs.k_N_per_m;
-        result.f1_in_fluid_Hz   = rs.fluid.frequency_Hz;
-        result.stiffness_time_s = rs.wall_time_s;
-        result.wall_time_s      = seconds_since(start);
-        return result;
-      }
+      return design_result(rs, sweep, seconds_since(start));
     // 3. The map set.
-    return write_map_set(file, out, rs, sweep, mpi.size(), seconds_since(start));
+    const double wall = seconds_since(start);
+    return write_map_set(file, out, rs, sweep, mpi.size(), wall,
+                         "`rectify design`, " + std::to_string(mpi.size()) + " process(es), " + fmt("%.0f", wall) +
+                           " s wall");
   }
 } // namespace rectify::design

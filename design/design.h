@@ -64,9 +64,12 @@ namespace rectify::design
 
   /// Stage 3: the map set in `out` (which holds reed/ from stage 1) from the
   /// reed and the openings (stokes::resistance_sweep or its plan): tables,
-  /// manifest, plots, report. One process.
+  /// manifest, plots, report. One process. `n_processes` and `wall_time_s`
+  /// go into the manifest; `made_by` says in the report what made it and
+  /// what its time means ("`rectify design`, 2 process(es), 243 s wall").
   DesignResult write_map_set(const CaseFile &file, const std::filesystem::path &out, const ReedStage &reed,
-                             const stokes::SweepResult &sweep, unsigned n_processes, double wall_time_s);
+                             const stokes::SweepResult &sweep, unsigned n_processes, double wall_time_s,
+                             const std::string &made_by);
 
   /// The case tables and settings a map set depends on: [geometry], [fluid]
   /// (density, viscosity), [reed_material] (values and hashes), and the

@@ -76,12 +76,12 @@ namespace rectify::stokes
     static std::mutex                    mutex;
     static std::map<std::string, double> gap_R_at_x0;
     const double port = 128 * mu * g.port_length_m / (M_PI * std::pow(g.port_diameter_m, 4));
+    const std::string     id = csv_row(key);
     const std::lock_guard lock(mutex);
-    auto it = gap_R_at_x0.find(csv_row(key));
+    auto                  it = gap_R_at_x0.find(id);
     if (it == gap_R_at_x0.end())
-      it = gap_R_at_x0
-             .emplace(csv_row(key),
-                      thin_gap_valve_R(g, [&](double x) { return shape(x); }, x0, closed_to_m, mu, 10e-6) - port)
+      it = gap_R_at_x0.emplace(id, thin_gap_valve_R(g, [&](double x) { return shape(x); }, x0, closed_to_m, mu, 10e-6) -
+                                     port)
              .first;
     return it->second * std::pow(x0 / opening, 3) + port;
   }

@@ -248,14 +248,13 @@ namespace rectify::system
   } // namespace
 
   SweepOptions default_sweep_options(const SystemParameters &p, Scenario scenario, std::vector<double> frequencies_Hz,
-                                     SweepSeries series, std::size_t n_cycles)
+                                     std::size_t n_cycles)
   {
     SweepOptions s;
     s.scenario             = scenario;
     s.current_pp_A         = p.drive.current_pp_A;
     s.current_bias_A       = p.drive.current_bias_A;
     s.frequencies_Hz       = std::move(frequencies_Hz);
-    s.series               = {std::move(series)};
     s.run                  = run_options(p.solver);
     s.run.settle           = true;
     s.run.n_cycles         = n_cycles;

@@ -69,12 +69,12 @@ namespace rectify::system
     double                  wall_time_s = 0;
   };
 
-  /// A sweep of one series as `rectify sweep` runs it by default: the
+  /// A sweep as `rectify sweep` runs it by default, without its series: the
   /// case's drive currents and [solver] settings, a settled start-up
   /// (tolerance 2e-3, at most 1000 cycles), then `n_cycles` measured, 16
   /// samples a cycle (a sweep keeps no time series).
   SweepOptions default_sweep_options(const SystemParameters &parameters, Scenario scenario,
-                                     std::vector<double> frequencies_Hz, SweepSeries series, std::size_t n_cycles);
+                                     std::vector<double> frequencies_Hz, std::size_t n_cycles);
 
   /// Runs the sweep, checkpointing into `out_dir` (which must exist).
   SweepResult run_sweep(const SystemParameters &parameters, const SweepOptions &options,

@@ -7,7 +7,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <ctime>
 #include <deque>
 #include <fstream>
 #include <map>
@@ -34,14 +33,6 @@ namespace rectify::whatif
   {
     using Clock = std::chrono::steady_clock;
     double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
-
-    std::string utc_now()
-    {
-      const std::time_t t = std::time(nullptr);
-      char              buf[32];
-      std::strftime(buf, sizeof(buf), "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
-      return buf;
-    }
 
     std::string exact(double x)
     {
@@ -92,6 +83,15 @@ namespace rectify::whatif
       return header;
     }
 
+    /// One opening's record (an opening job's result).
+    stokes::OpeningPoint read_opening(const fs::path &file)
+    {
+      const auto csv = read_csv(file);
+      if (csv.columns != stokes::OpeningPoint::columns() || csv.rows.size() != 1)
+        throw InputError("'" + file.string() + "': not one opening's record (columns " + openings_header() + ")");
+      return stokes::OpeningPoint::from_row(csv.rows[0]);
+    }
+
     /// The openings solved so far for a map set in the making.
     std::map<double, stokes::OpeningPoint> read_openings(const fs::path &work)
     {
@@ -104,14 +104,41 @@ namespace rectify::whatif
           const std::string name = entry.path().filename().string();
           if (name.rfind("x-", 0) != 0 || entry.path().extension() != ".csv")
             continue; // a temporary a kill left
-          const auto csv = read_csv(entry.path());
-          if (csv.columns != stokes::OpeningPoint::columns() || csv.rows.size() != 1)
-            throw InputError("'" + entry.path().string() + "': not one opening's record (columns " + openings_header() +
-                             ")");
-          const auto p = stokes::OpeningPoint::from_row(csv.rows[0]);
+          const auto p        = read_opening(entry.path());
           points[p.opening_m] = p;
         }
       return points;
+    }
+
+    /// A failed job's record (failures/JOB.json).
+    struct Failure
+    {
+      std::string              job, reason;
+      std::vector<std::string> designs;
+    };
+
+    /// Every failure recorded in the batch's folder, by file name.
+    std::vector<Failure> read_failures(const Paths &paths)
+    {
+      std::vector<fs::path> files;
+      if (fs::exists(paths.failures()))
+        for (const auto &e : fs::directory_iterator(paths.failures()))
+          if (e.path().extension() == ".json")
+            files.push_back(e.path());
+      std::sort(files.begin(), files.end());
+      std::vector<Failure> failures;
+      for (const auto &f : files)
+        try
+          {
+            const auto j = read_json_file(f);
+            failures.push_back({j.at("job").get<std::string>(), j.at("reason").get<std::string>(),
+                                j.at("designs").get<std::vector<std::string>>()});
+          }
+        catch (const nlohmann::json::exception &e)
+          {
+            throw InputError("'" + f.string() + "': not a failure record (" + e.what() + ")");
+          }
+      return failures;
     }
 
     /// Moves a finished map set from the batch's work folder into the cache.
@@ -221,8 +248,8 @@ namespace rectify::whatif
       const auto &range = velocity ? bs.velocity : bs.pressure;
       auto        s     = system::default_sweep_options(
         p, velocity ? system::Scenario::loaded : system::Scenario::no_flow,
-        system::frequency_grid(range.from_Hz, range.to_Hz, range.n, range.log_spacing),
-        system::parse_sweep_series("dynamic"), bs.cycles);
+        system::frequency_grid(range.from_Hz, range.to_Hz, range.n, range.log_spacing), bs.cycles);
+      s.series = {system::parse_sweep_series("dynamic")};
       if (!velocity)
         {
           s.current_pp_A   = bs.pressure_current_pp_A;
@@ -318,7 +345,10 @@ namespace rectify::whatif
               double wall = rs.wall_time_s;
               for (const auto &p : plan.result.points)
                 wall += p.wall_time_s;
-              (void)design::write_map_set(dc.file, work, rs, plan.result, bs.procs_per_job, wall);
+              (void)design::write_map_set(dc.file, work, rs, plan.result, bs.procs_per_job, wall,
+                                          "`rectify whatif`, each opening a job on " +
+                                            std::to_string(bs.procs_per_job) + " process(es), " +
+                                            format_number(std::round(wall)) + " s summed over its jobs");
               publish(work, paths.cached(job.hash));
               return;
             }
@@ -337,22 +367,15 @@ namespace rectify::whatif
     class Scheduler
     {
     public:
-      Scheduler(const BatchSettings &bs, const std::vector<DesignCase> &designs, const Paths &paths, unsigned n_groups)
-        : bs_(bs)
-        , designs_(designs)
+      Scheduler(const std::vector<DesignCase> &designs, const Paths &paths, unsigned n_groups)
+        : designs_(designs)
         , paths_(paths)
         , n_groups_(n_groups)
         , log_(paths.out / "jobs.log", std::ios::app)
-        , start_(Clock::now())
       {
         std::map<std::string, std::string> failures; // job id -> reason
-        if (fs::exists(paths.failures()))
-          for (const auto &e : fs::directory_iterator(paths.failures()))
-            if (e.path().extension() == ".json")
-              {
-                const auto j = read_json_file(e.path());
-                failures[j.at("job").get<std::string>()] = j.at("reason").get<std::string>();
-              }
+        for (const auto &f : read_failures(paths))
+          failures[f.job] = f.reason;
         for (std::size_t i = 0; i < designs.size(); ++i)
           {
             const auto &h = designs[i].map_set_hash;
@@ -433,11 +456,10 @@ namespace rectify::whatif
           {
             ++report.n_jobs_failed;
             std::vector<std::string> names;
-            for (const auto &dc : designs_)
-              if (job.kind == JobKind::velocity || job.kind == JobKind::pressure ?
-                    &dc == &designs_[job.design] :
-                    dc.map_set_hash == job.hash)
-                names.push_back(dc.design.name);
+            const bool sweep = job.kind == JobKind::velocity || job.kind == JobKind::pressure;
+            for (std::size_t i = 0; i < designs_.size(); ++i)
+              if (sweep ? i == job.design : designs_[i].map_set_hash == job.hash)
+                names.push_back(designs_[i].design.name);
             std::string file = id;
             std::replace(file.begin(), file.end(), ':', '_');
             ensure_directory(paths_.failures());
@@ -453,7 +475,7 @@ namespace rectify::whatif
               s.running.erase(job.x);
               if (ok)
                 {
-                  s.solved = read_openings(paths_.work(job.hash));
+                  s.solved[job.x] = read_opening(Paths::opening_file(paths_.work(job.hash), job.x));
                   s.plan.reset();
                 }
               break;
@@ -598,12 +620,10 @@ namespace rectify::whatif
                      what.c_str(), leader, wall_s, ok ? "" : ", FAILED: ", ok ? "" : reason.c_str());
       }
 
-      const BatchSettings                    &bs_;
       const std::vector<DesignCase>          &designs_;
       const Paths                            &paths_;
       unsigned                                n_groups_;
       std::ofstream                           log_;
-      Clock::time_point                       start_;
       std::map<std::string, SetState>         sets_;
       std::vector<DesignState>                states_;
       std::map<int, Job>                      running_; ///< by the group leader's rank
@@ -716,7 +736,7 @@ namespace rectify::whatif
 
     /// A group's loop: its leader asks rank 0 for a job, the group runs it.
     void serve(const BatchSettings &bs, const std::vector<DesignCase> &designs, const Paths &paths, MPI_Comm sched,
-               MPI_Comm group_comm, int world_rank)
+               MPI_Comm group_comm)
     {
       const auto group  = stokes::MpiSession::on(group_comm);
       const bool leader = group.rank() == 0;
@@ -749,9 +769,7 @@ namespace rectify::whatif
           MPI_Allreduce(&ok, &all_ok, 1, MPI_INT, MPI_MIN, group_comm);
           if (!all_ok && ok)
             reason = "failed on another process of its group";
-          report = nlohmann::json{{"ok", all_ok != 0}, {"reason", reason}, {"wall_s", seconds_since(t)},
-                                  {"rank", world_rank}}
-                     .dump();
+          report = nlohmann::json{{"ok", all_ok != 0}, {"reason", reason}, {"wall_s", seconds_since(t)}}.dump();
         }
     }
 
@@ -767,9 +785,12 @@ namespace rectify::whatif
       return key;
     }
 
-    void write_summary(const BatchSettings &bs, const std::vector<DesignCase> &designs, const Paths &paths)
+    /// Writes the table, its JSON and the plots; returns how many designs failed.
+    std::size_t write_summary(const BatchSettings &bs, const std::vector<DesignCase> &designs, const Paths &paths)
     {
-      const auto keys = design_keys(bs.designs);
+      const auto  failures = read_failures(paths);
+      std::size_t n_failed = 0;
+      const auto  keys     = design_keys(bs.designs);
       std::set<std::string> varying; // keys set to more than one value: the axes
       for (const auto &k : keys)
         {
@@ -813,21 +834,9 @@ namespace rectify::whatif
             status = "failed";
             reason += (reason.empty() ? "" : "; ") + stage + ": " + why;
           };
-          // What failed, from the failure records.
-          if (fs::exists(paths.failures()))
-            {
-              std::vector<fs::path> files;
-              for (const auto &e : fs::directory_iterator(paths.failures()))
-                files.push_back(e.path());
-              std::sort(files.begin(), files.end());
-              for (const auto &f : files)
-                {
-                  const auto j = read_json_file(f);
-                  for (const auto &n : j.at("designs"))
-                    if (n.get<std::string>() == dc.design.name)
-                      add_failure(j.at("job").get<std::string>(), j.at("reason").get<std::string>());
-                }
-            }
+          for (const auto &f : failures)
+            if (std::find(f.designs.begin(), f.designs.end(), dc.design.name) != f.designs.end())
+              add_failure(f.job, f.reason);
           nlohmann::json row = {{"design", dc.design.name}, {"values", dc.design.values()}, {"map_set_hash", h}};
           if (paths.map_set_done(h))
             {
@@ -921,6 +930,7 @@ namespace rectify::whatif
           csv << "," << h << ",\"" << quoted << "\"\n";
           row["status"] = status;
           row["reason"] = reason;
+          n_failed += status != "ok";
           rows.push_back(row);
           plot_table.add_row(plot_row);
         }
@@ -986,6 +996,7 @@ namespace rectify::whatif
                       {{"R(x) of every design (map sets)", "tip opening [um]", "R [Pa s/m^3]", true, true, r},
                        {"A_eff(x) of every design", "tip opening [um]", "A_eff [mm^2]", true, false, a}});
         }
+      return n_failed;
     }
   } // namespace
 
@@ -1067,6 +1078,8 @@ namespace rectify::whatif
   {
     if (settings.designs.empty())
       throw InputError("whatif: no designs (give --vary or --designs)");
+    if (settings.reed_loading != "auto" && settings.reed_loading != "case")
+      throw InputError("--reed-loading " + settings.reed_loading + ": expected auto or case");
     const fs::path          base_dir = fs::absolute(settings.case_path).parent_path();
     std::vector<DesignCase> cases;
     for (const auto &d : settings.designs)
@@ -1075,29 +1088,23 @@ namespace rectify::whatif
         for (std::size_t i = 0; i < d.entries.size(); ++i)
           values += (i ? ", " : "") + d.entries[i].table + "." + d.entries[i].key + " = " + d.text_values[i];
         const std::string name = settings.case_path.string() + " with design " + d.name + " (" + values + ")";
-        std::string       text = design_case_text(settings.case_text, base_dir, d);
-        CaseFile          file = CaseFile::parse(text, name, base_dir);
-        check(file);
-        auto system = system::SystemParameters::from_case(file, false);
+        Design            with = d;
         const bool design_sets_it = std::any_of(d.entries.begin(), d.entries.end(), [](const CaseEntry &e) {
           return e.table == "flow" && e.key == "reed_loading";
         });
         if (settings.reed_loading == "auto" && !design_sets_it)
           {
-            // The map set's loading table only if the system model reads it.
-            Design with = d;
-            with.entries.push_back({"flow", "reed_loading", system.reed.fluid_loading == "map" ? "\"solve\"" : "\"skip\"",
-                                    ""});
-            with.text_values.push_back(system.reed.fluid_loading == "map" ? "solve" : "skip");
-            text = design_case_text(settings.case_text, base_dir, with);
-            text += "# [flow] reed_loading set by rectify whatif --reed-loading auto: the loading table only where "
-                    "[reed] fluid_loading = \"map\" reads it\n";
-            file = CaseFile::parse(text, name, base_dir);
-            check(file);
-            system = system::SystemParameters::from_case(file, false);
+            // The map set's loading table only if the design's system model reads it.
+            const bool map = system::SystemParameters::from_case(
+                               CaseFile::parse(design_case_text(settings.case_text, base_dir, d), name, base_dir), false)
+                               .reed.fluid_loading == "map";
+            with.entries.push_back({"flow", "reed_loading", map ? "\"solve\"" : "\"skip\"", ""});
+            with.text_values.push_back(map ? "solve" : "skip");
           }
-        else if (settings.reed_loading != "case")
-          throw InputError("--reed-loading " + settings.reed_loading + ": expected auto or case");
+        const std::string text = design_case_text(settings.case_text, base_dir, with);
+        const CaseFile    file = CaseFile::parse(text, name, base_dir);
+        check(file);
+        const auto system = system::SystemParameters::from_case(file, false);
         if (system.drive.waveform != "sine")
           throw InputError(file.where("drive", "waveform") + ": the what-if's sweeps need the sine drive");
         cases.push_back({d, file, text, map_set_hash(file), stokes::SweepSettings::from_case(file)});
@@ -1220,7 +1227,7 @@ namespace rectify::whatif
     BatchReport report;
     if (rank == 0)
       {
-        Scheduler   scheduler(bs, designs, paths, n_groups);
+        Scheduler   scheduler(designs, paths, n_groups);
         std::thread thread([&]() {
           try
             {
@@ -1232,12 +1239,12 @@ namespace rectify::whatif
               MPI_Abort(MPI_COMM_WORLD, 1);
             }
         });
-        serve(bs, designs, paths, sched, group, rank);
+        serve(bs, designs, paths, sched, group);
         thread.join();
         report = scheduler.report;
       }
     else
-      serve(bs, designs, paths, sched, group, rank);
+      serve(bs, designs, paths, sched, group);
     MPI_Comm_free(&group);
     MPI_Comm_free(&sched);
     if (rank != 0)
@@ -1245,11 +1252,8 @@ namespace rectify::whatif
     std::error_code ec;
     fs::remove(paths.out / "work", ec); // if empty: every map set is in the cache
 
-    write_summary(bs, designs, paths);
+    report.n_failed  = write_summary(bs, designs, paths);
     report.n_designs = designs.size();
-    const auto summary = read_json_file(paths.out / "whatif.json");
-    for (const auto &row : summary.at("designs"))
-      report.n_failed += row.at("status").get<std::string>() != "ok";
     report.wall_time_s = seconds_since(start);
     write_json(paths.out / "run.json", {{"finished", utc_now()},
                                         {"wall_time_s", report.wall_time_s},
