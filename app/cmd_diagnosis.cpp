@@ -367,7 +367,8 @@ namespace rectify::app
         std::string md = "# rectify diagnose\n\nCase: `" + o.case_path + "`, scenario " + o.scenario + ".\n\n";
         md += "The reeds' second mode in the baseline: " + second_mode.text() + ".\n\n";
         md += "**Verdict: " + result.verdict + ".** " + result.verdict_sentence + ".\n\n";
-        md += "## The records\n\n| run | start | residual of each start (first 2 cycles, swing units) | "
+        md += "## The records\n\n| run | start | residual of each start (first 2 cycles, swing units; with the "
+              "model that chose it) | "
               "settling samples left out | outliers replaced | compared |\n|---|---|---|---|---|---|\n";
         for (const auto &rc : result.runs)
           {
@@ -377,7 +378,8 @@ namespace rectify::app
             for (const auto &x : rc.outliers)
               spikes += (spikes.empty() ? "" : "; ") + x.column + " row " + std::to_string(x.row) + " (" +
                         sci(x.noise_units) + " sd)";
-            md += "| `" + rc.run.source + "` | " + diagnosis::to_string(rc.start) + " | " +
+            md += "| `" + rc.run.source + "` | " + diagnosis::to_string(rc.start) +
+                  (rc.start_revised.empty() ? "" : " (" + rc.start_revised + ")") + " | " +
                   (scores.empty() ? "-" : scores) + " | " + std::to_string(rc.n_skip) + " | " +
                   (spikes.empty() ? "none" : spikes) + " | " +
                   (rc.band_Hz > 0 ? "within " + format_number(rc.harmonics) + " harmonics (to " +
@@ -424,6 +426,11 @@ namespace rectify::app
                   md += "- refitted " + std::to_string(rr.refine_passes) +
                         " time(s) with the residual's noise scales recomputed from the fitted model (the "
                         "candidates' table below shows the first fit, on which the choice was made)\n";
+                for (const auto &b : rr.freed)
+                  md += "- `" + b.name + "` freed for the refits: held at the baseline fit, determined at this "
+                        "effect's fit (standard error " + sci(b.sd_unit) + " of its range" +
+                        (b.note.empty() ? "" : "; " + b.note) + "); refitted from the case's " + sci(b.nominal) +
+                        " to " + sci(rr.baseline.count(b.name) ? rr.baseline.at(b.name) : b.value) + "\n";
               }
             md += "- force gain (nuisance): " + sci(rr.force_gain) + "\n- evidence: " + rr.decision + "\n\n";
             md += "| candidate | k | BIC - BIC(none) | AIC | RMS train | RMS held-out | parameters |\n|---|---|---|---|---|---|---|\n";

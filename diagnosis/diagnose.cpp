@@ -418,8 +418,10 @@ namespace rectify::diagnosis
     /// Fits ev's candidate: from a coarse grid over the effect's first
     /// parameter (gain 1), or, when `from_point` is given (a point in
     /// [0, 1]^k), locally from there with small first steps.
+    /// from_point: a local fit from there, first steps of `first_step` (of
+    /// each position's [0, 1] range)
     CandidateResult fit(const Evaluator &ev, std::vector<Signals> &predictions,
-                        const std::vector<double> *from_point = nullptr)
+                        const std::vector<double> *from_point = nullptr, double first_step = 0.02)
     {
       const auto      start = Clock::now();
       CandidateResult c;
@@ -453,7 +455,7 @@ namespace rectify::diagnosis
         throw std::logic_error("diagnose: a fit's start point has " + std::to_string(from_point->size()) +
                                " coordinates, its candidate " + std::to_string(dim));
       if (from_point)
-        add_start(*from_point, ringing ? fine_step(*from_point) : 0.02);
+        add_start(*from_point, ringing ? fine_step(*from_point) : first_step);
       else if (ev.effect)
         {
           // the grid with the baseline as the baseline fit left it, and (if
@@ -810,30 +812,14 @@ namespace rectify::diagnosis
 
   namespace
   {
-    /// The baseline fit's parameters (free [uncertain] ones and the gain):
-    /// their standard errors from the Gauss-Newton covariance s^2 (J^T J)^-1
-    /// at the fit (J by forward differences in the [0, 1] positions, s^2 =
-    /// SSR / n); while the largest exceeds `limit`, or two parameters
-    /// correlate beyond 0.98, one is held at the case's value and the rest
-    /// re-checked. Returns one entry per
-    /// [uncertain] parameter and the gain; sets ev.free to the identifiable
-    /// ones and ev.held / ev.nuisance_start to the fit.
-    std::vector<BaselineParameter> check_identifiability(Evaluator &ev, const CandidateResult &none,
-                                                         double limit, int &runs_of_the_model)
+    /// The residual vector's Jacobian at u0 (residual r0 there) by forward
+    /// differences of 0.01 in the [0, 1] positions; a run that fails gives
+    /// its column no information (zero).
+    Eigen::MatrixXd unit_jacobian(const Evaluator &ev, const std::vector<double> &u0, const std::vector<double> &r0,
+                                  int &runs_of_the_model)
     {
-      const auto               &base = ev.base;
-      const std::vector<double> u0   = none.u; // [free..., gain]
-      const std::size_t         m    = u0.size();
-      const std::vector<double> r0   = ev.residual_vector(u0);
-      ++runs_of_the_model;
-      const double s2 = [&] {
-        double sum = 0;
-        for (double e : r0)
-          sum += e * e;
-        return std::max(sum / static_cast<double>(std::max<std::size_t>(r0.size(), 1)), 1e-300);
-      }();
-      Eigen::MatrixXd J(static_cast<Eigen::Index>(r0.size()), static_cast<Eigen::Index>(m));
-      for (std::size_t j = 0; j < m; ++j)
+      Eigen::MatrixXd J(static_cast<Eigen::Index>(r0.size()), static_cast<Eigen::Index>(u0.size()));
+      for (std::size_t j = 0; j < u0.size(); ++j)
         {
           const double h = u0[j] + 0.01 <= 1.0 ? 0.01 : -0.01;
           auto         u = u0;
@@ -845,21 +831,45 @@ namespace rectify::diagnosis
             }
           catch (const std::exception &)
             {
-              r = r0; // no information from a failed run
+              r = r0;
             }
           ++runs_of_the_model;
           for (std::size_t i = 0; i < r0.size(); ++i)
-            J(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) =
-              (i < r.size() ? r[i] - r0[i] : 0.0) / h;
+            J(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = (i < r.size() ? r[i] - r0[i] : 0.0) / h;
         }
-      std::vector<bool>   active(m, true);
-      std::vector<double> sd(m, 0.0);
-      std::vector<std::string> note(m);
+      return J;
+    }
+
+    double mean_square(const std::vector<double> &r)
+    {
+      double sum = 0;
+      for (double e : r)
+        sum += e * e;
+      return std::max(sum / static_cast<double>(std::max<std::size_t>(r.size(), 1)), 1e-300);
+    }
+
+    struct Determined
+    {
+      std::vector<bool>        active; ///< per column: still free
+      std::vector<double>      sd;     ///< standard error in the [0, 1] position
+      std::vector<std::string> note;   ///< why held, strongest correlation
+    };
+
+    /// Which parameters (J's columns, named `names`) the data determine:
+    /// standard errors from the Gauss-Newton covariance s2 (J^T J)^-1; while
+    /// the largest of a `holdable` column exceeds `limit`, or a holdable
+    /// column correlates beyond 0.98 with another, that column (of a pair,
+    /// the less certain holdable one) is held and the rest re-checked.
+    Determined hold_undetermined(const Eigen::MatrixXd &J, double s2, const std::vector<std::string> &names,
+                                 const std::vector<bool> &holdable, double limit)
+    {
+      const std::size_t m = static_cast<std::size_t>(J.cols());
+      Determined        d{std::vector<bool>(m, true), std::vector<double>(m, 0.0), std::vector<std::string>(m)};
       for (;;)
         {
           std::vector<Eigen::Index> cols;
           for (std::size_t j = 0; j < m; ++j)
-            if (active[j])
+            if (d.active[j])
               cols.push_back(static_cast<Eigen::Index>(j));
           if (cols.empty())
             break;
@@ -873,40 +883,36 @@ namespace rectify::diagnosis
           for (Eigen::Index k = 0; k < inv.size(); ++k)
             inv(k) = inv(k) > 1e-12 * top ? 1.0 / inv(k) : 1e300;
           const Eigen::MatrixXd C = eig.eigenvectors() * inv.asDiagonal() * eig.eigenvectors().transpose();
-          std::size_t worst = 0;
+          const auto corr = [&](std::size_t c, std::size_t e) {
+            const auto k = static_cast<Eigen::Index>(c), l = static_cast<Eigen::Index>(e);
+            return C(k, l) / std::sqrt(std::max(C(k, k) * C(l, l), 1e-300));
+          };
+          std::size_t worst    = m;
           double      worst_sd = -1;
           for (std::size_t c = 0; c < cols.size(); ++c)
             {
-              const auto   k = static_cast<Eigen::Index>(c);
-              const double v = std::sqrt(std::max(C(k, k), 0.0));
-              sd[static_cast<std::size_t>(cols[c])] = v;
+              const auto  j = static_cast<std::size_t>(cols[c]);
+              d.sd[j]       = std::sqrt(std::max(C(static_cast<Eigen::Index>(c), static_cast<Eigen::Index>(c)), 0.0));
               // strongest correlation, for the report
-              double best = 0;
+              double      best = 0;
               std::size_t with = 0;
-              for (std::size_t d = 0; d < cols.size(); ++d)
-                if (d != c)
+              for (std::size_t e = 0; e < cols.size(); ++e)
+                if (e != c && std::abs(corr(c, e)) > std::abs(best))
                   {
-                    const auto   l = static_cast<Eigen::Index>(d);
-                    const double r = C(k, l) / std::sqrt(std::max(C(k, k) * C(l, l), 1e-300));
-                    if (std::abs(r) > std::abs(best))
-                      {
-                        best = r;
-                        with = static_cast<std::size_t>(cols[d]);
-                      }
+                    best = corr(c, e);
+                    with = static_cast<std::size_t>(cols[e]);
                   }
+              d.note[j].clear();
               if (std::abs(best) > 0.9)
                 {
                   char buf[160];
-                  std::snprintf(buf, sizeof buf, "correlated %.3f with %s", best,
-                                with + 1 == m ? "force_gain" : base.uncertain[ev.free[with]].name().c_str());
-                  note[static_cast<std::size_t>(cols[c])] = buf;
+                  std::snprintf(buf, sizeof buf, "correlated %.3f with %s", best, names[with].c_str());
+                  d.note[j] = buf;
                 }
-              else
-                note[static_cast<std::size_t>(cols[c])].clear();
-              if (v > worst_sd)
+              if (holdable[j] && d.sd[j] > worst_sd)
                 {
-                  worst_sd = v;
-                  worst    = static_cast<std::size_t>(cols[c]);
+                  worst_sd = d.sd[j];
+                  worst    = j;
                 }
             }
           // a pair the data cannot tell apart (|correlation| > 0.98: only a
@@ -914,25 +920,66 @@ namespace rectify::diagnosis
           // column in a no-flow run) holds the less certain of the two
           if (!(worst_sd > limit))
             for (std::size_t c = 0; c < cols.size() && !(worst_sd > limit); ++c)
-              for (std::size_t d = c + 1; d < cols.size(); ++d)
+              for (std::size_t e = c + 1; e < cols.size(); ++e)
                 {
-                  const auto   k = static_cast<Eigen::Index>(c), l = static_cast<Eigen::Index>(d);
-                  const double r = C(k, l) / std::sqrt(std::max(C(k, k) * C(l, l), 1e-300));
-                  if (std::abs(r) > 0.98)
+                  const auto jc = static_cast<std::size_t>(cols[c]), je = static_cast<std::size_t>(cols[e]);
+                  if (std::abs(corr(c, e)) > 0.98 && (holdable[jc] || holdable[je]))
                     {
-                      worst    = static_cast<std::size_t>(C(k, k) >= C(l, l) ? cols[c] : cols[d]);
+                      worst    = !holdable[je] || (holdable[jc] && d.sd[jc] >= d.sd[je]) ? jc : je;
                       worst_sd = 2 * limit; // held below
                       break;
                     }
                 }
-          if (!(worst_sd > limit))
+          if (!(worst_sd > limit) || worst == m)
             break;
-          active[worst] = false;
+          d.active[worst] = false;
           char buf[200];
           std::snprintf(buf, sizeof buf, "held at the case's value: standard error %.2g of its range%s%s",
-                        sd[worst], note[worst].empty() ? "" : ", ", note[worst].c_str());
-          note[worst] = buf;
+                        d.sd[worst], d.note[worst].empty() ? "" : ", ", d.note[worst].c_str());
+          d.note[worst] = buf;
         }
+      return d;
+    }
+
+    /// An [uncertain] parameter as reported: at position `unit`, its case
+    /// value, range and standard error.
+    BaselineParameter baseline_parameter(const system::SystemParameters &base, const system::UncertainParameter &q,
+                                         double unit, double sd_unit, bool identifiable, const std::string &note)
+    {
+      BaselineParameter b;
+      b.name         = q.name();
+      b.value        = uncertain_from_unit(q, unit);
+      b.nominal      = base.real_value(q.table, q.key);
+      b.lower        = q.lower;
+      b.upper        = q.upper;
+      b.sd_unit      = sd_unit;
+      b.identifiable = identifiable;
+      b.note         = note;
+      return b;
+    }
+
+    /// The baseline fit's parameters (free [uncertain] ones and the gain):
+    /// which of them the data determine (hold_undetermined, s2 = SSR / n at
+    /// the fit). Returns one entry per [uncertain] parameter and the gain;
+    /// sets ev.free to the identifiable ones and ev.held / ev.nuisance_start
+    /// to the fit.
+    std::vector<BaselineParameter> check_identifiability(Evaluator &ev, const CandidateResult &none,
+                                                         double limit, int &runs_of_the_model)
+    {
+      const auto               &base = ev.base;
+      const std::vector<double> u0   = none.u; // [free..., gain]
+      const std::size_t         m    = u0.size();
+      const std::vector<double> r0   = ev.residual_vector(u0);
+      ++runs_of_the_model;
+      const Eigen::MatrixXd    J = unit_jacobian(ev, u0, r0, runs_of_the_model);
+      std::vector<std::string> names;
+      for (std::size_t j = 0; j + 1 < m; ++j)
+        names.push_back(base.uncertain[ev.free[j]].name());
+      names.push_back("force_gain");
+      const Determined d = hold_undetermined(J, mean_square(r0), names, std::vector<bool>(m, true), limit);
+      const std::vector<bool>        &active = d.active;
+      const std::vector<double>      &sd     = d.sd;
+      const std::vector<std::string> &note   = d.note;
       std::vector<BaselineParameter> out;
       std::vector<std::size_t>       still_free;
       std::vector<double>            start;
@@ -940,15 +987,7 @@ namespace rectify::diagnosis
         {
           const std::size_t q_index = ev.free[j];
           const auto       &q       = base.uncertain[q_index];
-          BaselineParameter b;
-          b.name         = q.name();
-          b.value        = uncertain_from_unit(q, u0[j]);
-          b.nominal      = base.real_value(q.table, q.key);
-          b.lower        = q.lower;
-          b.upper        = q.upper;
-          b.sd_unit      = sd[j];
-          b.identifiable = active[j];
-          b.note         = note[j];
+          const auto        b       = baseline_parameter(base, q, u0[j], sd[j], active[j], note[j]);
           out.push_back(b);
           // held: at the case's value (the prior), not at this fit, which a
           // missing effect may have pulled anywhere
@@ -973,6 +1012,72 @@ namespace rectify::diagnosis
       start.push_back(u0[m - 1]); // the gain is always fitted: held ones only lose their freedom
       ev.nuisance_start = start;
       return out;
+    }
+
+
+    /// After an effect is named: the held [uncertain] parameters that the
+    /// data determine at the named model's fit are freed. The baseline fit
+    /// judged them at a model without the effect, whose residual (hundreds
+    /// of noise units where the effect is strong) inflates every standard
+    /// error (s2 = SSR / n) and whose Jacobian is taken where the missing
+    /// effect has pulled the others. Judged again here with the effect's
+    /// parameters in the covariance, so that a parameter traded against the
+    /// effect stays held. `ev` is the named effect's evaluator, `u` its fit;
+    /// both are updated to the wider free set. Returns the freed ones.
+    std::vector<BaselineParameter> free_determined(Evaluator &ev, std::vector<double> &u, double limit,
+                                                   int &runs_of_the_model)
+    {
+      const auto       &base = ev.base;
+      const std::size_t ne = ev.n_effect(), nq = base.uncertain.size();
+      std::vector<bool> was_free(nq, false);
+      for (std::size_t j : ev.free)
+        was_free[j] = true;
+      if (std::all_of(was_free.begin(), was_free.end(), [](bool b) { return b; }))
+        return {};
+      Evaluator all = ev;
+      all.free.clear();
+      for (std::size_t j = 0; j < nq; ++j)
+        all.free.push_back(j);
+      const std::vector<double> w = ev.uncertain_units(u);
+      std::vector<double>       ua(u.begin(), u.begin() + static_cast<std::ptrdiff_t>(ne));
+      ua.insert(ua.end(), w.begin(), w.end());
+      ua.push_back(u.back());
+      const std::vector<double> r0 = all.residual_vector(ua);
+      ++runs_of_the_model;
+      const Eigen::MatrixXd    J = unit_jacobian(all, ua, r0, runs_of_the_model);
+      std::vector<std::string> names;
+      std::vector<bool>        holdable;
+      for (std::size_t i = 0; i < ne; ++i)
+        {
+          names.push_back(ev.effect->parameters()[i].key);
+          holdable.push_back(false);
+        }
+      for (std::size_t j = 0; j < nq; ++j)
+        {
+          names.push_back(base.uncertain[j].name());
+          holdable.push_back(!was_free[j]);
+        }
+      names.push_back("force_gain");
+      holdable.push_back(false);
+      const Determined d = hold_undetermined(J, mean_square(r0), names, holdable, limit);
+
+      std::vector<BaselineParameter> freed;
+      std::vector<std::size_t>       free;
+      std::vector<double>            un(u.begin(), u.begin() + static_cast<std::ptrdiff_t>(ne));
+      for (std::size_t j = 0; j < nq; ++j)
+        {
+          if (!was_free[j] && !d.active[ne + j])
+            continue;
+          free.push_back(j);
+          un.push_back(w[j]);
+          if (was_free[j])
+            continue;
+          freed.push_back(baseline_parameter(base, base.uncertain[j], w[j], d.sd[ne + j], true, d.note[ne + j]));
+        }
+      un.push_back(u.back());
+      ev.free = free;
+      u       = un;
+      return freed;
     }
 
   } // namespace
@@ -1202,20 +1307,79 @@ namespace rectify::diagnosis
             // Recalibrate with the fitted model and refit locally, until the
             // parameters settle (iteratively reweighted least squares).
             std::vector<double> u = c.u;
+            Evaluator named_ev    = baseline_ev; // one fit: its runs at once
+            named_ev.effect       = todo[i];
+            named_ev.reference    = nullptr;
+            named_ev.run_threads  = cores;
+            if (options.refine_passes > 0)
+              {
+                int checks = 0;
+                rr.freed   = free_determined(named_ev, u, options.identifiability_sd, checks);
+                // The start, chosen again with the named model: the first
+                // choice was made with the case's baseline, which a strong
+                // effect leaves so far off that every start scored alike
+                // (a record from mid-operation simulated from rest, its
+                // start-up transient the largest residual left).
+                if (options.start == "auto")
+                  {
+                    std::vector<StartState> was;
+                    for (const auto &rc : runs)
+                      was.push_back(rc.start);
+                    choose_start(named_ev.parameters(u), map, runs, options, cores);
+                    for (std::size_t r = 0; r < runs.size(); ++r)
+                      if (runs[r].start != was[r])
+                        runs[r].start_revised = to_string(was[r]) + " with the case's baseline, " +
+                                                to_string(runs[r].start) + " with " + c.effect + "'s fit";
+                  }
+              }
             for (int pass = 0; pass < options.refine_passes; ++pass)
               {
-                Evaluator ev   = baseline_ev; // one fit: its runs at once
-                ev.effect      = todo[i];
-                ev.reference   = nullptr;
-                ev.run_threads = cores;
+                Evaluator ev = named_ev;
                 calibrate_noise(ev.parameters(u), map, runs, options.relative_tolerance, cores);
+                // a freed parameter starts at the case's value, which can
+                // lie far from its fit, along a valley too rough for a
+                // trust region's first steps: first the best of a scan over
+                // its range (the others where they are)
+                if (pass == 0)
+                  for (const auto &b : rr.freed)
+                    {
+                      const auto at = std::find_if(ev.free.begin(), ev.free.end(), [&](std::size_t j) {
+                        return ev.base.uncertain[j].name() == b.name;
+                      });
+                      const std::size_t k = ev.n_effect() + static_cast<std::size_t>(at - ev.free.begin());
+                      const auto score = [&](const std::vector<double> &x) {
+                        try
+                          {
+                            const auto t = ev.training(x);
+                            return t.sum / static_cast<double>(std::max<std::size_t>(t.n, 1));
+                          }
+                        catch (const std::exception &)
+                          {
+                            return 1e300;
+                          }
+                      };
+                      double best = score(u);
+                      auto   x    = u;
+                      for (int g = 0; g < 10; ++g)
+                        {
+                          x[k]             = (g + 0.5) / 10.0;
+                          const double val = score(x);
+                          if (val < best)
+                            {
+                              best = val;
+                              u[k] = x[k];
+                            }
+                        }
+                    }
                 std::vector<Signals> refined;
-                const auto           r = fit(ev, refined, &u);
+                const auto           r = fit(ev, refined, &u, pass == 0 && !rr.freed.empty() ? 0.05 : 0.02);
                 if (r.failed)
                   break;
                 double moved = std::abs(r.force_gain / rr.force_gain - 1.0);
                 for (std::size_t j = 0; j < r.values.size(); ++j)
                   moved = std::max(moved, std::abs(r.values[j] / rr.values[j] - 1.0));
+                for (const auto &b : rr.freed) // moved far from the case's value: scales to recompute
+                  moved = std::max(moved, std::abs(r.baseline.at(b.name) / rr.baseline.at(b.name) - 1.0));
                 u             = r.u;
                 rr.values     = r.values;
                 rr.force_gain = r.force_gain;
@@ -1386,11 +1550,18 @@ namespace rectify::diagnosis
                            {"standard_error_of_range", b.sd_unit},
                            {"identifiable", b.identifiable},
                            {"note", b.note}});
+        json freed = json::array();
+        for (const auto &b : rr.freed)
+          freed.push_back({{"parameter", b.name},
+                           {"standard_error_of_range", b.sd_unit},
+                           {"note", b.note},
+                           {"refitted", rr.baseline.count(b.name) ? json(rr.baseline.at(b.name)) : json()}});
         rounds.push_back({{"effect", rr.effect},
                           {"parameters", p},
                           {"force_gain", rr.force_gain},
                           {"baseline", rr.baseline},
                           {"baseline_fit", check},
+                          {"freed_at_the_named_fit", freed},
                           {"confidence", rr.confidence},
                           {"decision", rr.decision},
                           {"signature_explained", rr.signature_explained},
@@ -1406,6 +1577,7 @@ namespace rectify::diagnosis
                               {"frequency_Hz", runs[i].setup.frequency_Hz},
                               {"start", to_string(r.runs[i].start)},
                               {"start_residuals", r.runs[i].start_scores},
+                              {"start_revised", r.runs[i].start_revised},
                               {"harmonics_compared", r.runs[i].harmonics},
                               {"band_Hz", r.runs[i].band_Hz},
                               {"band_reason", r.runs[i].band_reason},
@@ -1439,6 +1611,7 @@ namespace rectify::diagnosis
             {"residual_baseline_fit", r.residual_baseline},
             {"baseline", first.baseline},
             {"baseline_fit", rounds.front()["baseline_fit"]},
+            {"freed_at_the_named_fit", rounds.front()["freed_at_the_named_fit"]},
             {"residual_before_fraction_of_swing", r.swing_before},
             {"residual_after_fraction_of_swing", r.swing_after},
             {"candidates", rounds.front()["candidates"]},

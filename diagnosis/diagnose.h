@@ -118,6 +118,9 @@ namespace rectify::diagnosis
     /// the record before it is band-limited.
     RecordedState                 recorded;
     nlohmann::json                start_scores;      ///< residual of each start tried (auto)
+    /// "rest with the case's baseline, record with valve_leakage's fit" when
+    /// the start was chosen again, with the named effect, and changed
+    std::string                   start_revised;
     std::vector<Outlier>          outliers;          ///< found and replaced in the record
     double                        band_Hz = 0;        ///< the comparison's band (0: whole)
     double                        harmonics = 0;      ///< harmonics compared (0: every sample)
@@ -167,6 +170,8 @@ namespace rectify::diagnosis
     double                       force_gain = 1.0;
     std::map<std::string, double> baseline;       ///< [uncertain] values of the chosen fit
     std::vector<BaselineParameter> baseline_check; ///< the baseline fit and identifiability
+    /// held at the baseline fit, determined at the named effect's fit: freed for its refits
+    std::vector<BaselineParameter> freed;
     double                       confidence = 0; ///< BIC weight of the named candidate
     std::string                  decision;       ///< the reasoning in words
     std::vector<CandidateResult> candidates;

@@ -391,6 +391,53 @@ TEST(ForeignData, AnUncertainBaselineIsCalibratedNotMistakenForAnEffect)
   EXPECT_GE(held, 1);
 }
 
+// A strong leak on a rig whose accumulator holds 3.0e-5 m^3 of gas, not the
+// case's 1.64e-5 (and whose lines' bore is 5.6 mm, not 4.57): the baseline
+// fit without the leak is hundreds of noise units off, which inflates every
+// standard error, and the gas volume is held at the case's value. Judged
+// again at the leak's fit the data determine it: it is freed for the refits
+// and moves toward the rig's value (held, it would stay at the case's).
+TEST(ForeignData, ABaselineParameterHeldWithoutTheEffectIsFreedWhereTheEffectsFitDeterminesIt)
+{
+  const auto  dir  = scratch("foreign_freed");
+  std::string text = reference_text();
+  for (const auto &[from, to] : {std::pair<std::string, std::string>{"diameter_m = 4.572e-3", "diameter_m = 5.6e-3"},
+                                 {"gas_volume_m3 = 1.6387e-5", "gas_volume_m3 = 3.0e-5"}})
+    {
+      const auto at = text.find(from);
+      ASSERT_NE(at, std::string::npos) << from;
+      text.replace(at, from.size(), to);
+    }
+  {
+    std::ofstream out(dir / "rig.toml");
+    out << text;
+  }
+  std::filesystem::copy_file(reference_case_path().parent_path() / "thesis-resistance.csv",
+                             dir / "thesis-resistance.csv");
+  auto r = rectify_cli("synth --case " + (dir / "rig.toml").string() +
+                       " --effect valve_leakage --param leak_resistance_Pa_s_per_m3=1e11 --noise 0.01 --seed 7 "
+                       "--frequency 150 --cycles 12 --out " + (dir / "data").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto s = diagnose_summary(dir / "data" / "data.csv", "--effects valve_leakage --reed-second-mode case",
+                                  dir / "d");
+  ASSERT_FALSE(s.is_null());
+  ASSERT_EQ(s["effect"], "valve_leakage") << s["decision"];
+  bool held = false;
+  for (const auto &b : s["baseline_fit"])
+    if (b["parameter"] == "accumulator.gas_volume_m3")
+      held = !b["identifiable"].get<bool>();
+  ASSERT_TRUE(held) << s["baseline_fit"].dump(1);
+  ASSERT_EQ(s["freed_at_the_named_fit"].size(), 1u) << s["freed_at_the_named_fit"].dump(1);
+  EXPECT_EQ(s["freed_at_the_named_fit"][0]["parameter"], "accumulator.gas_volume_m3");
+  // from the case's 1.64e-5 at least a third of the way (in log) to the rig's 3.0e-5
+  const double gas = s["baseline"]["accumulator.gas_volume_m3"].get<double>();
+  EXPECT_GT(std::log(gas / 1.6387e-5), std::log(3.0e-5 / 1.6387e-5) / 3) << gas;
+  EXPECT_LT(gas, 3.3e-5);
+  EXPECT_NEAR(s["baseline"]["lines.diameter_m"].get<double>(), 5.6e-3, 0.03 * 5.6e-3);
+  EXPECT_NEAR(s["parameters"]["leak_resistance_Pa_s_per_m3"].get<double>(), 1e11, 0.03 * 1e11);
+  EXPECT_LT(s["residual_after"]["overall"].get<double>(), 1.5);
+}
+
 // When the library has nothing that fits (a hidden leak, candidates that
 // cannot make one), the verdict says so and says where the gap is, instead
 // of "explains".
