@@ -417,9 +417,8 @@ namespace rectify::diagnosis
 
     /// Fits ev's candidate: from a coarse grid over the effect's first
     /// parameter (gain 1), or, when `from_point` is given (a point in
-    /// [0, 1]^k), locally from there with small first steps.
-    /// from_point: a local fit from there, first steps of `first_step` (of
-    /// each position's [0, 1] range)
+    /// [0, 1]^k), locally from there with first steps of `first_step` (of
+    /// each position's [0, 1] range).
     CandidateResult fit(const Evaluator &ev, std::vector<Signals> &predictions,
                         const std::vector<double> *from_point = nullptr, double first_step = 0.02)
     {
@@ -977,9 +976,6 @@ namespace rectify::diagnosis
         names.push_back(base.uncertain[ev.free[j]].name());
       names.push_back("force_gain");
       const Determined d = hold_undetermined(J, mean_square(r0), names, std::vector<bool>(m, true), limit);
-      const std::vector<bool>        &active = d.active;
-      const std::vector<double>      &sd     = d.sd;
-      const std::vector<std::string> &note   = d.note;
       std::vector<BaselineParameter> out;
       std::vector<std::size_t>       still_free;
       std::vector<double>            start;
@@ -987,12 +983,12 @@ namespace rectify::diagnosis
         {
           const std::size_t q_index = ev.free[j];
           const auto       &q       = base.uncertain[q_index];
-          const auto        b       = baseline_parameter(base, q, u0[j], sd[j], active[j], note[j]);
+          const auto        b       = baseline_parameter(base, q, u0[j], d.sd[j], d.active[j], d.note[j]);
           out.push_back(b);
           // held: at the case's value (the prior), not at this fit, which a
           // missing effect may have pulled anywhere
-          ev.held[q_index] = active[j] ? u0[j] : uncertain_to_unit(q, b.nominal);
-          if (active[j])
+          ev.held[q_index] = d.active[j] ? u0[j] : uncertain_to_unit(q, b.nominal);
+          if (d.active[j])
             {
               still_free.push_back(q_index);
               start.push_back(u0[j]);
@@ -1004,9 +1000,9 @@ namespace rectify::diagnosis
       g.nominal      = 1.0;
       g.lower        = 1.0 - ev.options.gain_range;
       g.upper        = 1.0 + ev.options.gain_range;
-      g.sd_unit      = sd[m - 1];
-      g.identifiable = active[m - 1];
-      g.note         = note[m - 1];
+      g.sd_unit      = d.sd[m - 1];
+      g.identifiable = d.active[m - 1];
+      g.note         = d.note[m - 1];
       out.push_back(g);
       ev.free = still_free;
       start.push_back(u0[m - 1]); // the gain is always fitted: held ones only lose their freedom
@@ -1078,6 +1074,43 @@ namespace rectify::diagnosis
       ev.free = free;
       u       = un;
       return freed;
+    }
+
+    /// A freed parameter starts at the case's value, which can lie far from
+    /// its fit, along a valley too rough for a trust region's first steps:
+    /// each is placed at the best of a 10-point scan over its range (the
+    /// others where they are) before the refit.
+    void place_freed(const Evaluator &ev, const std::vector<BaselineParameter> &freed, std::vector<double> &u)
+    {
+      const auto score = [&](const std::vector<double> &x) {
+        try
+          {
+            const auto t = ev.training(x);
+            return t.sum / static_cast<double>(std::max<std::size_t>(t.n, 1));
+          }
+        catch (const std::exception &)
+          {
+            return 1e300; // the model failed to integrate there
+          }
+      };
+      for (const auto &b : freed)
+        {
+          const auto at = std::find_if(ev.free.begin(), ev.free.end(),
+                                       [&](std::size_t j) { return ev.base.uncertain[j].name() == b.name; });
+          const std::size_t k    = ev.n_effect() + static_cast<std::size_t>(at - ev.free.begin());
+          double            best = score(u);
+          auto              x    = u;
+          for (int g = 0; g < 10; ++g)
+            {
+              x[k]             = (g + 0.5) / 10.0;
+              const double val = score(x);
+              if (val < best)
+                {
+                  best = val;
+                  u[k] = x[k];
+                }
+            }
+        }
     }
 
   } // namespace
@@ -1327,50 +1360,18 @@ namespace rectify::diagnosis
                       was.push_back(rc.start);
                     choose_start(named_ev.parameters(u), map, runs, options, cores);
                     for (std::size_t r = 0; r < runs.size(); ++r)
-                      if (runs[r].start != was[r])
-                        runs[r].start_revised = to_string(was[r]) + " with the case's baseline, " +
-                                                to_string(runs[r].start) + " with " + c.effect + "'s fit";
+                      if (runs[r].start != was[r]) // a later round appends its own
+                        runs[r].start_revised +=
+                          (runs[r].start_revised.empty() ? to_string(was[r]) + " with the case's baseline" : "") +
+                          ", " + to_string(runs[r].start) + " with " + c.effect + "'s fit";
                   }
               }
             for (int pass = 0; pass < options.refine_passes; ++pass)
               {
                 Evaluator ev = named_ev;
                 calibrate_noise(ev.parameters(u), map, runs, options.relative_tolerance, cores);
-                // a freed parameter starts at the case's value, which can
-                // lie far from its fit, along a valley too rough for a
-                // trust region's first steps: first the best of a scan over
-                // its range (the others where they are)
                 if (pass == 0)
-                  for (const auto &b : rr.freed)
-                    {
-                      const auto at = std::find_if(ev.free.begin(), ev.free.end(), [&](std::size_t j) {
-                        return ev.base.uncertain[j].name() == b.name;
-                      });
-                      const std::size_t k = ev.n_effect() + static_cast<std::size_t>(at - ev.free.begin());
-                      const auto score = [&](const std::vector<double> &x) {
-                        try
-                          {
-                            const auto t = ev.training(x);
-                            return t.sum / static_cast<double>(std::max<std::size_t>(t.n, 1));
-                          }
-                        catch (const std::exception &)
-                          {
-                            return 1e300;
-                          }
-                      };
-                      double best = score(u);
-                      auto   x    = u;
-                      for (int g = 0; g < 10; ++g)
-                        {
-                          x[k]             = (g + 0.5) / 10.0;
-                          const double val = score(x);
-                          if (val < best)
-                            {
-                              best = val;
-                              u[k] = x[k];
-                            }
-                        }
-                    }
+                  place_freed(ev, rr.freed, u);
                 std::vector<Signals> refined;
                 const auto           r = fit(ev, refined, &u, pass == 0 && !rr.freed.empty() ? 0.05 : 0.02);
                 if (r.failed)

@@ -119,7 +119,8 @@ namespace rectify::diagnosis
     RecordedState                 recorded;
     nlohmann::json                start_scores;      ///< residual of each start tried (auto)
     /// "rest with the case's baseline, record with valve_leakage's fit" when
-    /// the start was chosen again, with the named effect, and changed
+    /// the start was chosen again, with the named effect, and changed (a
+    /// later round appends ", periodic with its effect's fit")
     std::string                   start_revised;
     std::vector<Outlier>          outliers;          ///< found and replaced in the record
     double                        band_Hz = 0;        ///< the comparison's band (0: whole)

@@ -821,7 +821,12 @@ namespace rectify::whatif
         plot_columns.push_back(c);
       CsvTable plot_table(plot_columns);
       const double nan = std::nan("");
-      std::vector<std::pair<fs::path, std::string>> curves; // map-curve.csv, title
+      struct Curve
+      {
+        fs::path    file;         ///< the map set's map-curve.csv
+        std::string design, title; ///< the design's name; its name and varied values
+      };
+      std::vector<Curve> curves;
       for (std::size_t i = 0; i < designs.size(); ++i)
         {
           const auto       &dc = designs[i];
@@ -870,7 +875,7 @@ namespace rectify::whatif
               for (std::size_t e = 0; e < dc.design.entries.size(); ++e)
                 if (varying.contains(dc.design.entries[e].table + "." + dc.design.entries[e].key))
                   title += " " + dc.design.entries[e].key + "=" + dc.design.text_values[e];
-              curves.emplace_back(paths.cached(h) / "map-curve.csv", title);
+              curves.push_back({paths.cached(h) / "map-curve.csv", dc.design.name, title});
               row["map_set"] = paths.cached(h).string();
             }
           bool answered[2] = {false, false};
@@ -985,9 +990,9 @@ namespace rectify::whatif
       if (!curves.empty())
         {
           std::vector<PlotSeries> r, a;
-          for (const auto &[file, title] : curves)
+          for (const auto &[file, design, title] : curves)
             {
-              const fs::path copy = plots / ("map-curve-" + title.substr(0, title.find(' ')) + ".csv");
+              const fs::path copy = plots / ("map-curve-" + design + ".csv");
               write_file_atomic(copy, read_text(file));
               r.push_back({copy, "opening_m", "R_Pa_s_per_m3", title, "lines", 1e6, 1});
               a.push_back({copy, "opening_m", "A_eff_m2", title, "lines", 1e6, 1e6});
