@@ -39,6 +39,9 @@ namespace rectify::app
   /// `check`: validate a case file for every stage.
   void register_check_command(CLI::App &app);
 
+  /// `geometry`: check and draw a valve's geometry.
+  void register_geometry_command(CLI::App &app);
+
   /// `synth`, `diagnose` (diagnosis/).
   void register_diagnosis_commands(CLI::App &app);
 

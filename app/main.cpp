@@ -23,6 +23,7 @@ int main(int argc, char **argv)
   CLI::App app{"rectify " RECTIFY_VERSION
                ": reed valves of smart-material pumps, from flow and structure to the whole actuator"};
   rectify::app::register_check_command(app);
+  rectify::app::register_geometry_command(app);
   rectify::app::register_system_commands(app);
   rectify::app::register_map_commands(app);
   rectify::app::register_fe_command_stubs(app);

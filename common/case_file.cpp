@@ -148,24 +148,71 @@ namespace rectify
     return p.is_absolute() ? p : base_dir_ / p;
   }
 
+  namespace
+  {
+    /// "port#2" -> ("port", 2); any other name -> (name, 0).
+    std::pair<std::string, std::size_t> split_entry(const std::string &table)
+    {
+      const auto hash = table.find('#');
+      if (hash == std::string::npos)
+        return {table, 0};
+      return {table.substr(0, hash), static_cast<std::size_t>(std::stoul(table.substr(hash + 1)))};
+    }
+
+    /// The table `table` names: a [table], or entry i of an array of tables for "name#i".
+    const toml::value *find_table(const toml::value &root, const std::string &table)
+    {
+      const auto &top           = root.as_table();
+      const auto [name, entry] = split_entry(table);
+      const auto  t             = top.find(name);
+      if (t == top.end())
+        return nullptr;
+      if (entry == 0)
+        return t->second.is_table() ? &t->second : nullptr;
+      if (!t->second.is_array() || entry > t->second.as_array().size())
+        return nullptr;
+      const auto &e = t->second.as_array()[entry - 1];
+      return e.is_table() ? &e : nullptr;
+    }
+
+    const toml::value *find(const toml::value &root, const std::string &table,
+                            const std::string &key)
+    {
+      const toml::value *t = find_table(root, table);
+      if (t == nullptr)
+        return nullptr;
+      const auto &inner = t->as_table();
+      const auto  k     = inner.find(key);
+      return k == inner.end() ? nullptr : &k->second;
+    }
+  } // namespace
+
   std::string CaseFile::where(const std::string &table, const std::string &key) const
   {
+    const auto [name, entry] = split_entry(table);
+    if (entry > 0)
+      return "case file '" + name_ + "' [[" + name + "]] #" + std::to_string(entry) + " " + key;
     return "case file '" + name_ + "' [" + table + "] " + key;
+  }
+
+  std::size_t CaseFile::table_count(const std::string &array_name) const
+  {
+    const auto &top = impl_->root.as_table();
+    const auto  t   = top.find(array_name);
+    if (t == top.end())
+      return 0;
+    if (!t->second.is_array())
+      throw InputError("case file '" + name_ + "': '" + array_name + "' must be written [[" + array_name +
+                       "]], one such table per entry");
+    for (std::size_t i = 0; i < t->second.as_array().size(); ++i)
+      if (!t->second.as_array()[i].is_table())
+        throw InputError("case file '" + name_ + "': '" + array_name + "' entry " + std::to_string(i + 1) +
+                         " is not a table; write [[" + array_name + "]]");
+    return t->second.as_array().size();
   }
 
   namespace
   {
-    const toml::value *find(const toml::value &root, const std::string &table,
-                            const std::string &key)
-    {
-      const auto &top = root.as_table();
-      const auto  t   = top.find(table);
-      if (t == top.end() || !t->second.is_table())
-        return nullptr;
-      const auto &inner = t->second.as_table();
-      const auto  k     = inner.find(key);
-      return k == inner.end() ? nullptr : &k->second;
-    }
 
     std::string line_of(const toml::value &v)
     {
@@ -182,9 +229,8 @@ namespace rectify
   std::vector<std::string> CaseFile::keys(const std::string &table) const
   {
     std::vector<std::pair<std::size_t, std::string>> found;
-    const auto &top = impl_->root.as_table();
-    if (const auto t = top.find(table); t != top.end() && t->second.is_table())
-      for (const auto &[key, value] : t->second.as_table())
+    if (const toml::value *t = find_table(impl_->root, table))
+      for (const auto &[key, value] : t->as_table())
         found.emplace_back(value.location().line(), key);
     std::sort(found.begin(), found.end());
     std::vector<std::string> out;
@@ -257,6 +303,45 @@ namespace rectify
       list += (list.empty() ? "" : " ") + format_number(x);
     record(table, key, "[" + list + "]", "each " + bounds.describe());
     return values;
+  }
+
+  std::vector<std::array<double, 2>> CaseFile::points(const std::string &table, const std::string &key,
+                                                      const Bounds &bounds) const
+  {
+    declare(table, key);
+    const toml::value                 *v = find(impl_->root, table, key);
+    std::vector<std::array<double, 2>> out;
+    if (v == nullptr)
+      return out;
+    const auto number = [&](const toml::value &e, std::size_t i) {
+      if (e.is_floating())
+        return e.as_floating();
+      if (e.is_integer())
+        return static_cast<double>(e.as_integer());
+      throw InputError(where(table, key) + line_of(*v) + ", point " + std::to_string(i + 1) +
+                       ": expected numbers, got " + toml::format(e));
+    };
+    if (!v->is_array() || v->as_array().empty())
+      throw InputError(where(table, key) + line_of(*v) + ": expected a list of [x, y] points, got " +
+                       toml::format(*v));
+    std::string list;
+    for (std::size_t i = 0; i < v->as_array().size(); ++i)
+      {
+        const auto &e = v->as_array()[i];
+        if (!e.is_array() || e.as_array().size() != 2)
+          throw InputError(where(table, key) + line_of(*v) + ", point " + std::to_string(i + 1) +
+                           ": expected [x, y], got " + toml::format(e));
+        const std::array<double, 2> p{number(e.as_array()[0], i), number(e.as_array()[1], i)};
+        for (const double c : p)
+          if (!bounds.contains(c))
+            throw InputError(where(table, key) + line_of(*v) + ", point " + std::to_string(i + 1) + " = [" +
+                             format_number(p[0]) + ", " + format_number(p[1]) + "]: each coordinate must be " +
+                             bounds.describe());
+        out.push_back(p);
+        list += (list.empty() ? "[" : " [") + format_number(p[0]) + ", " + format_number(p[1]) + "]";
+      }
+    record(table, key, "[" + list + "]", "points, each coordinate " + bounds.describe());
+    return out;
   }
 
   long CaseFile::integer(const std::string &table, const std::string &key, long default_value,
@@ -335,21 +420,30 @@ namespace rectify
 
   void CaseFile::check_all_keys_known() const
   {
+    const auto check_table = [&](const std::string &table, const toml::value &value, const std::string &shown) {
+      bool any_known = false;
+      for (const auto &k : known_)
+        any_known = any_known || k.rfind(table + ".", 0) == 0;
+      if (!any_known)
+        throw InputError("case file '" + name_ + "': unknown table " + shown + line_of(value));
+      for (const auto &[key, inner] : value.as_table())
+        if (known_.count(table + "." + key) == 0)
+          throw InputError(where(table, key) + line_of(inner) +
+                           ": unknown key (check its spelling and unit suffix)");
+    };
     for (const auto &[table, value] : impl_->root.as_table())
       {
+        if (value.is_array() && !value.as_array().empty() && value.as_array().front().is_table())
+          {
+            for (std::size_t i = 0; i < value.as_array().size(); ++i)
+              if (value.as_array()[i].is_table())
+                check_table(table + "#" + std::to_string(i + 1), value.as_array()[i], "[[" + table + "]]");
+            continue;
+          }
         if (!value.is_table())
           throw InputError("case file '" + name_ + "': '" + table + "'" + line_of(value) +
                            " must be a [table]; top-level keys are not used");
-        bool any_known = false;
-        for (const auto &k : known_)
-          any_known = any_known || k.rfind(table + ".", 0) == 0;
-        if (!any_known)
-          throw InputError("case file '" + name_ + "': unknown table [" + table + "]" +
-                           line_of(value));
-        for (const auto &[key, inner] : value.as_table())
-          if (known_.count(table + "." + key) == 0)
-            throw InputError(where(table, key) + line_of(inner) +
-                             ": unknown key (check its spelling and unit suffix)");
+        check_table(table, value, "[" + table + "]");
       }
   }
 

@@ -7,6 +7,7 @@
 // back to a default.
 #pragma once
 
+#include <array>
 #include <filesystem>
 #include <limits>
 #include <map>
@@ -75,6 +76,16 @@ namespace rectify
     std::string text(const std::string &table, const std::string &key,
                      const std::string &default_value,
                      const std::vector<std::string> &allowed = {}) const;
+
+    /// A list of points (a TOML array of [x, y] pairs), each coordinate
+    /// checked against `bounds`; empty if the key is absent.
+    std::vector<std::array<double, 2>> points(const std::string &table, const std::string &key,
+                                              const Bounds &bounds) const;
+
+    /// Arrays of tables: `[[port]]` entries are the tables "port#1",
+    /// "port#2", ... for every accessor above; this is how many there are
+    /// (0 if none). A `[name]` table instead of `[[name]]` is an InputError.
+    std::size_t table_count(const std::string &array_name) const;
 
     /// Declares a key as known without reading it (for keys another stage reads).
     void declare(const std::string &table, const std::string &key) const;

@@ -46,7 +46,8 @@ namespace rectify
           s << "set title " << quote(p.title) << "\nset xlabel " << quote(p.x_label)
             << "\nset ylabel " << quote(p.y_label) << "\n"
             << (p.log_x ? "set logscale x\n" : "unset logscale x\n")
-            << (p.log_y ? "set logscale y\n" : "unset logscale y\n") << "plot ";
+            << (p.log_y ? "set logscale y\n" : "unset logscale y\n")
+            << (p.equal_axes ? "set size ratio -1\nset offsets graph 0.04, graph 0.04, graph 0.04, graph 0.04\n" : "") << "plot ";
           for (std::size_t i = 0; i < p.series.size(); ++i)
             {
               const auto &r  = p.series[i];

@@ -29,6 +29,7 @@ namespace rectify
     bool                    log_x = false;
     bool                    log_y = false;
     std::vector<PlotSeries> series;
+    bool                    equal_axes = false; ///< one unit as long on both axes (drawings)
   };
 
   /// Writes `<base>.gp` and renders `<base>.png` and `<base>.svg` (panels

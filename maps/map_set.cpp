@@ -71,17 +71,7 @@ namespace rectify::maps
 
   nlohmann::json physical_tables(const ValveGeometry &g, const FluidParameters &fluid, const ReedMaterial &m)
   {
-    return {{"geometry",
-             {{"reed_length_m", g.reed_length_m},
-              {"reed_width_m", g.reed_width_m},
-              {"reed_thickness_m", g.reed_thickness_m},
-              {"port_diameter_m", g.port_diameter_m},
-              {"port_center_x_m", g.port_center_x_m},
-              {"port_length_m", g.port_length_m},
-              {"pocket_length_m", g.pocket_length_m},
-              {"pocket_width_m", g.pocket_width_m},
-              {"pocket_height_m", g.pocket_height_m},
-              {"outlet_face", g.outlet_face}}},
+    return {{"geometry", g.to_json()},
             {"fluid", {{"density_kg_per_m3", fluid.density_kg_per_m3}, {"viscosity_Pa_s", fluid.viscosity_Pa_s}}},
             {"reed_material",
              {{"youngs_modulus_Pa", m.youngs_modulus_Pa},

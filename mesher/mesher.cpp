@@ -18,6 +18,7 @@ namespace rectify::mesher
 
   ValveMesh mesh_valve(const MeshParameters &parameters, double opening, bool verbose)
   {
+    parameters.geometry.require_rectangle_over_one_circle("the mesher");
     const auto start = Clock::now();
     auto       stage = start;
     ValveMesh  result;

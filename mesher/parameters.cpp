@@ -53,6 +53,11 @@ namespace rectify::mesher
       throw InputError(file.where("mesh", "size_reed_m") + " = " + format_number(s.size_reed_m) +
                        ": too coarse to resolve the port and the reed (at most a quarter of the"
                        " port's diameter and the reed's width, " + format_number(size_limit) + " m)");
+    for (const auto &feature : g.features())
+      if (feature.size_m < s.size_reed_m)
+        throw InputError(file.where("mesh", "size_reed_m") + " = " + format_number(s.size_reed_m) +
+                         ": coarser than " + feature.what + " (" + format_number(feature.size_m) +
+                         " m), which the mesh could not resolve; make size_reed_m at most that, or the feature larger");
     if (2 * s.slab_margin_m + g.reed_thickness_m >= g.pocket_height_m)
       throw InputError(file.where("mesh", "slab_margin_m") + " = " + format_number(s.slab_margin_m) +
                        ": the slab (reed thickness + 2 margins) does not fit under the pocket"

@@ -423,6 +423,7 @@ namespace rectify::stiffness
 
   StiffnessResult solve_reed(const StiffnessParameters &parameters, const SolveOptions &options)
   {
+    parameters.geometry.require_rectangle_over_one_circle("the stiffness solver");
     ReedElasticity solver(parameters, options);
     return solver.run();
   }

@@ -69,14 +69,13 @@ namespace rectify::stokes
     constexpr double           x0    = 100e-6;
     const mesher::SampledShape shape = mp.sampled_shape();
     const auto                &g     = mp.geometry;
-    std::vector<double>        key   = {closed_to_m, mu, g.reed_length_m, g.reed_width_m, g.port_diameter_m,
-                                        g.port_center_x_m, g.port_length_m};
+    std::vector<double>        key   = {closed_to_m, mu};
     key.insert(key.end(), shape.stations().begin(), shape.stations().end());
     key.insert(key.end(), shape.values().begin(), shape.values().end());
     static std::mutex                    mutex;
     static std::map<std::string, double> gap_R_at_x0;
-    const double port = 128 * mu * g.port_length_m / (M_PI * std::pow(g.port_diameter_m, 4));
-    const std::string     id = csv_row(key);
+    const double          port = stokes::ports_bore_R(g, mu);
+    const std::string     id   = csv_row(key) + g.to_json().dump();
     const std::lock_guard lock(mutex);
     auto                  it = gap_R_at_x0.find(id);
     if (it == gap_R_at_x0.end())

@@ -3,6 +3,7 @@
 #include <Eigen/IterativeLinearSolvers>
 #include <Eigen/SparseCore>
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <vector>
@@ -107,27 +108,97 @@ namespace rectify::stokes
     return r;
   }
 
+  namespace
+  {
+    /// integral(w) over the polygon, -laplace(w) = 1 inside, w = 0 outside,
+    /// on squares of side d (cell centres inside the polygon are unknowns).
+    double duct_flow_integral(const geometry::Polygon &polygon, double d)
+    {
+      double x0 = polygon[0][0], x1 = x0, y0 = polygon[0][1], y1 = y0;
+      for (const auto &p : polygon)
+        x0 = std::min(x0, p[0]), x1 = std::max(x1, p[0]), y0 = std::min(y0, p[1]), y1 = std::max(y1, p[1]);
+      const long nx = std::lround(std::ceil((x1 - x0) / d)) + 2, ny = std::lround(std::ceil((y1 - y0) / d)) + 2;
+      const double ox = 0.5 * (x0 + x1) - 0.5 * static_cast<double>(nx) * d, oy = 0.5 * (y0 + y1) - 0.5 * static_cast<double>(ny) * d;
+      std::vector<long> index(static_cast<std::size_t>(nx * ny), -1);
+      long              n = 0;
+      for (long j = 0; j < ny; ++j)
+        for (long i = 0; i < nx; ++i)
+          if (geometry::side_of(polygon, {ox + (static_cast<double>(i) + 0.5) * d, oy + (static_cast<double>(j) + 0.5) * d}) ==
+              geometry::Side::inside)
+            index[static_cast<std::size_t>(j * nx + i)] = n++;
+      if (n == 0)
+        throw std::runtime_error("port bore: no cell of the section lies inside it (spacing too coarse)");
+      std::vector<Eigen::Triplet<double>> entries;
+      for (long j = 0; j < ny; ++j)
+        for (long i = 0; i < nx; ++i)
+          {
+            const long a = index[static_cast<std::size_t>(j * nx + i)];
+            if (a < 0)
+              continue;
+            entries.emplace_back(a, a, 4.0);
+            for (const auto [di, dj] : {std::pair{-1, 0}, std::pair{1, 0}, std::pair{0, -1}, std::pair{0, 1}})
+              {
+                const long b = index[static_cast<std::size_t>((j + dj) * nx + (i + di))]; // the frame's cells are outside
+                if (b >= 0)
+                  entries.emplace_back(a, b, -1.0);
+              }
+          }
+      Eigen::SparseMatrix<double> A(n, n);
+      A.setFromTriplets(entries.begin(), entries.end());
+      Eigen::ConjugateGradient<Eigen::SparseMatrix<double>, Eigen::Lower | Eigen::Upper, Eigen::IncompleteCholesky<double>> cg;
+      cg.setTolerance(1e-12);
+      cg.compute(A);
+      const Eigen::VectorXd w = cg.solve(Eigen::VectorXd::Constant(n, d * d));
+      if (cg.info() != Eigen::Success)
+        throw std::runtime_error("port bore: the conjugate gradient solver did not converge");
+      return w.sum() * d * d;
+    }
+  } // namespace
+
+  double port_bore_R(const Port &port, double mu, double spacing_m)
+  {
+    if (port.circular)
+      return 128 * mu * port.length_m / (M_PI * std::pow(port.diameter_m, 4));
+    const double fine = duct_flow_integral(port.outline_m, spacing_m), coarse = duct_flow_integral(port.outline_m, 2 * spacing_m);
+    return mu * port.length_m / (2 * fine - coarse);
+  }
+
+  double ports_bore_R(const ValveGeometry &g, double mu)
+  {
+    double conductance = 0;
+    for (const auto &p : g.ports())
+      conductance += 1 / port_bore_R(p, mu, p.circular ? 0.0 : geometry::narrowest_width(p.outline_m) / 40);
+    return 1 / conductance;
+  }
+
   double thin_gap_valve_R(const ValveGeometry &g, const std::function<double(double)> &phi, double opening_m,
                           double closed_to_m, double viscosity_Pa_s, double spacing_m)
   {
-    ThinGapProblem p;
-    p.x0 = 0, p.x1 = g.reed_length_m, p.y0 = -g.reed_width_m / 2, p.y1 = g.reed_width_m / 2;
+    const geometry::Polygon boundary = g.reed_boundary();
+    const auto              ports    = g.ports();
+    ThinGapProblem          p;
+    p.x0 = 0, p.x1 = boundary[0][0], p.y0 = boundary[0][1], p.y1 = boundary[0][1];
+    for (const auto &q : boundary)
+      p.x1 = std::max(p.x1, q[0]), p.y0 = std::min(p.y0, q[1]), p.y1 = std::max(p.y1, q[1]);
     p.spacing        = spacing_m;
     p.viscosity_Pa_s = viscosity_Pa_s;
     p.height         = [&](double x, double) { return opening_m * phi(x); };
-    const double r1  = g.port_diameter_m / 2;
-    p.kind           = [&](double x, double y) {
-      if (std::hypot(x - g.port_center_x_m, y) < r1)
-        return GapCell::source;
+    // The frame is the outline's bounding box, its sides sinks but the clamp's;
+    // cells outside the outline (beside a taper, a fillet) are sinks too.
+    p.kind = [&](double x, double y) {
+      for (const auto &port : ports)
+        if (port.contains({x, y}))
+          return GapCell::source;
+      if (geometry::side_of(boundary, {x, y}) == geometry::Side::outside)
+        return GapCell::sink;
       return x < closed_to_m ? GapCell::closed : GapCell::open;
     };
     p.x0_is_sink = false; // the clamp
-    const double port = 128 * viscosity_Pa_s * g.port_length_m / (M_PI * std::pow(g.port_diameter_m, 4));
-    // The staircase port makes the error first order in the spacing:
+    // The staircase edges make the error first order in the spacing:
     // Richardson extrapolation from the spacing and twice it.
     const double fine = solve_thin_gap(p).R_Pa_s_per_m3;
     p.spacing *= 2;
     const double coarse = solve_thin_gap(p).R_Pa_s_per_m3;
-    return 2 * fine - coarse + port;
+    return 2 * fine - coarse + ports_bore_R(g, viscosity_Pa_s);
   }
 } // namespace rectify::stokes

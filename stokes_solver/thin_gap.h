@@ -42,13 +42,24 @@ namespace rectify::stokes
   /// fails or no flow leaves the source.
   ThinGapResult solve_thin_gap(const ThinGapProblem &problem);
 
-  /// The reference valve's gap under the reed at a tip opening: h =
-  /// opening * phi(x) over the reed's footprint, the port's mouth the source,
-  /// the reed's sides and tip the sinks, the clamp a wall, closed where
-  /// x < closed_to_m (the mesher's cut-off). Returns the gap's R
-  /// (Richardson-extrapolated from `spacing_m` and twice it: the staircase
-  /// port's error is first order) plus the port's Hagen-Poiseuille part
-  /// 128 mu l / (pi D^4).
+  /// The valve's gap under the reed at a tip opening: h = opening * phi(x)
+  /// over the reed's outline (any outline, fillets included), every port's
+  /// mouth a source at one pressure, the seat beyond the reed's edge the
+  /// sink, the clamp a wall, closed where x < closed_to_m (the mesher's
+  /// cut-off). Returns the gap's R (Richardson-extrapolated from
+  /// `spacing_m` and twice it: the staircase edges make the error first
+  /// order) plus the ports' bores in parallel (ports_bore_R).
   double thin_gap_valve_R(const ValveGeometry &geometry, const std::function<double(double)> &phi,
                           double opening_m, double closed_to_m, double viscosity_Pa_s, double spacing_m);
+
+  /// One port's bore as a straight duct of its cross-section, fully developed
+  /// flow: a circle's Hagen-Poiseuille 128 mu l / (pi D^4); a polygon's
+  /// mu l / integral(w), -laplace(w) = 1 in the section, w = 0 on its edge,
+  /// solved by finite volumes on squares of `spacing_m` and twice it
+  /// (Richardson).
+  double port_bore_R(const Port &port, double viscosity_Pa_s, double spacing_m);
+
+  /// The ports' bores in parallel, 1 / sum(1 / R_i), each at a spacing of
+  /// 1/40 of its narrowest width.
+  double ports_bore_R(const ValveGeometry &geometry, double viscosity_Pa_s);
 } // namespace rectify::stokes

@@ -320,6 +320,93 @@ TEST(ThinGap, TheValveEstimateIsSolvedOnceAndScaledToEveryOpening)
     }
 }
 
+// A port's bore of any section (issue 19): a straight duct's Poiseuille
+// resistance mu l / integral(w), -laplace(w) = 1, against exact sections.
+TEST(ThinGap, APolygonPortsBoreIsItsDuctsPoiseuilleResistance)
+{
+  const double mu = 0.03, l = 3e-3;
+  // A circle drawn as a 96-gon of the same area: Hagen-Poiseuille.
+  Port circle;
+  circle.diameter_m = 3e-3;
+  circle.length_m   = l;
+  Port polygon      = circle;
+  polygon.circular  = false;
+  polygon.outline_m = geometry::circle_polygon({3e-3, 0}, 1.5e-3, 96);
+  const double hp   = 128 * mu * l / (M_PI * std::pow(3e-3, 4));
+  EXPECT_DOUBLE_EQ(port_bore_R(circle, mu, 0), hp);
+  const double r_polygon = port_bore_R(polygon, mu, 3e-3 / 80);
+  std::printf("96-gon bore: R / Hagen-Poiseuille = %.5f\n", r_polygon / hp);
+  EXPECT_NEAR(r_polygon / hp, 1.0, 3e-3);
+  // A 2:1 rectangle a x b: integral(w) = a b^3 / 12 (1 - 192 b / (pi^5 a) sum_odd tanh(n pi a / 2b) / n^5).
+  const double a = 2e-3, b = 1e-3;
+  double       sum = 0;
+  for (int n = 1; n < 40; n += 2)
+    sum += std::tanh(n * M_PI * a / (2 * b)) / std::pow(n, 5);
+  const double flow = a * b * b * b / 12 * (1 - 192 * b / (std::pow(M_PI, 5) * a) * sum);
+  Port         slot;
+  slot.circular  = false;
+  slot.length_m  = l;
+  slot.outline_m = {{2e-3, -1e-3}, {3e-3, -1e-3}, {3e-3, 1e-3}, {2e-3, 1e-3}};
+  const double r_slot = port_bore_R(slot, mu, b / 40);
+  std::printf("2:1 rectangular bore: R / exact = %.5f\n", r_slot * flow / (mu * l));
+  EXPECT_NEAR(r_slot * flow / (mu * l), 1.0, 3e-3);
+  // In parallel: two equal bores, half of one.
+  ValveGeometry two;
+  two.port_list = {circle, circle};
+  two.port_list[1].center_m = {3e-3, 2e-3};
+  EXPECT_DOUBLE_EQ(ports_bore_R(two, mu), hp / 2);
+}
+
+// The valve's thin-gap estimate over an outline that is not a rectangle:
+// a disc-shaped reed (a 192-gon, uniform gap) over a central port is
+// radial flow between discs, R = 6 mu ln(r2 / r1) / (pi h^3).
+TEST(ThinGap, ADiscReedOverACentralPortIsRadialFlow)
+{
+  const double  mu = 0.03, h = 20e-6, r1 = 1e-3, r2 = 3e-3;
+  ValveGeometry g;
+  g.reed_outline_m = geometry::circle_polygon({3.5e-3, 0}, r2, 192);
+  g.reed_fillet_radii_m.assign(192, 0.0);
+  Port port;
+  port.center_m   = {3.5e-3, 0};
+  port.diameter_m = 2 * r1;
+  g.port_list     = {port};
+  const double gap   = thin_gap_valve_R(g, [](double) { return 1.0; }, h, 0.0, mu, 10e-6) - ports_bore_R(g, mu);
+  const double exact = 6 * mu * std::log(r2 / r1) / (M_PI * h * h * h);
+  std::printf("disc reed: R_gap / radial flow = %.5f\n", gap / exact);
+  EXPECT_NEAR(gap / exact, 1.0, 5e-3);
+}
+
+// Two equal ports under a wide reed: by symmetry each takes half the flow,
+// and half the reed with a wall on its mid-plane is one port's share:
+// R(two ports) = R(one port under half the reed, walled) / 2.
+TEST(ThinGap, TwoPortsUnderAWideReedShareItAsTheirMirrorImages)
+{
+  const auto   two   = ValveGeometry::from_case(CaseFile::load(std::filesystem::path(RECTIFY_SOURCE_DIR) / "cases/geometries/two-ports.toml"));
+  const double mu = 0.03, x = 20e-6, d = 10e-6, closed_to = 1e-3;
+  const auto   phi   = [](double s) { return s / 6.1e-3; };
+  const double R_two = thin_gap_valve_R(two, phi, x, closed_to, mu, d) - ports_bore_R(two, mu);
+  // One port under the half y > 0, a wall on y = 0.
+  double R_half[2];
+  for (int k = 0; k < 2; ++k)
+    {
+      ThinGapProblem p;
+      p.x0 = 0, p.x1 = 6.1e-3, p.y0 = 0, p.y1 = 4.5e-3;
+      p.spacing        = d * (k + 1);
+      p.viscosity_Pa_s = mu;
+      p.height         = [&](double s, double) { return x * phi(s); };
+      p.kind           = [&](double s, double y) {
+        if (std::hypot(s - 3.3e-3, y - 2.5e-3) < 1e-3)
+          return GapCell::source;
+        return s < closed_to ? GapCell::closed : GapCell::open;
+      };
+      p.x0_is_sink = false, p.y0_is_sink = false;
+      R_half[k]    = solve_thin_gap(p).R_Pa_s_per_m3;
+    }
+  const double half = 2 * R_half[0] - R_half[1];
+  std::printf("two ports: R = %.6g, half reed walled / 2 = %.6g\n", R_two, half / 2);
+  EXPECT_NEAR(R_two / (half / 2), 1.0, 1e-6);
+}
+
 // The command's own inputs: named in the error, nothing written.
 TEST(Stokes, BadCommandLineIsRejectedBeforeAnyOutput)
 {
