@@ -34,7 +34,10 @@ namespace rectify::app
                     {{"case", o.case_path},
                      {"reed [m]", format_number(p.geometry.reed_length_m) + " x " +
                                     format_number(p.geometry.reed_width_m) + " x " +
-                                    format_number(p.geometry.reed_thickness_m)},
+                                    format_number(p.geometry.reed_thickness_m) +
+                                    (p.geometry.is_shorthand() ? std::string()
+                                                               : " (outline of " + std::to_string(p.geometry.reed_corners().size()) +
+                                                                   " corners: its length, width and thickness)")},
                      {"material", "E " + format_number(p.material.youngs_modulus_Pa) + " Pa, nu " +
                                     format_number(p.material.poisson_ratio)},
                      {"load", to_string(s.load)},
@@ -134,7 +137,10 @@ namespace rectify::app
           {"k_plate_N_per_m", b.k_plate},
           {"f1_beam_Hz", b.f1_beam},
           {"f1_plate_Hz", b.f1_plate},
-          {"k_position_between_beam_and_plate", (r.k_N_per_m - b.k_beam) / (b.k_plate - b.k_beam)}}},
+          {"k_position_between_beam_and_plate", (r.k_N_per_m - b.k_beam) / (b.k_plate - b.k_beam)},
+          {"of", p.geometry.is_shorthand() ? "the rectangular reed"
+                                           : "a rectangle of the outline's length and mean width (area / length)"}}},
+        {"geometry", p.geometry.to_json()},
         {"thesis_k_N_per_m", 6650.0},
         {"n_dofs", r.n_dofs},
         {"n_cells", r.n_cells},

@@ -270,7 +270,7 @@ namespace rectify::design
         {"checks", checks}}},
       {"wall_time_s", wall_time_s},
       {"stiffness_wall_time_s", rs.wall_time_s}};
-    const double seated = M_PI * 0.25 * sp.geometry.port_diameter_m * sp.geometry.port_diameter_m;
+    const double seated = sp.geometry.ports_area_m2(); // every port's mouth
     nlohmann::json r_meta = {{"source", "rectify design"}, {"closed", "1e17 Pa s/m^3 at x = 0 (the thesis's)"},
                              {"below_first_open_node", "the first interval's power law, capped at the closed value"}};
     maps::MapSet set(maps::ResistanceMap(x, R, (out / "resistance.csv").string(), r_meta,

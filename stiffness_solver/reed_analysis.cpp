@@ -12,7 +12,9 @@ namespace rectify::stiffness
   ReedBounds reed_bounds(const StiffnessParameters &p)
   {
     const auto  &g  = p.geometry;
-    const double I  = analytic::second_moment(g.reed_width_m, g.reed_thickness_m);
+    // An outline's bounds are those of a rectangle of its length and mean width.
+    const double W  = g.is_shorthand() ? g.reed_width_m : g.reed_area_m2() / g.reed_length_m;
+    const double I  = analytic::second_moment(W, g.reed_thickness_m);
     const double E  = p.material.youngs_modulus_Pa;
     const double Ep = analytic::plate_modulus(E, p.material.poisson_ratio);
     const auto compliance = [&](double EI) {
@@ -26,11 +28,11 @@ namespace rectify::stiffness
             return analytic::port_load_compliance(EI, g.reed_length_m, g.port_center_x_m, 0.5 * g.port_diameter_m);
         }
     };
-    const double m_per_length = p.material.density_kg_per_m3 * g.reed_width_m * g.reed_thickness_m;
+    const double m_per_length = p.material.density_kg_per_m3 * W * g.reed_thickness_m;
     return {1.0 / compliance(E * I), 1.0 / compliance(Ep * I),
             analytic::first_frequency_Hz(E * I, m_per_length, g.reed_length_m),
             analytic::first_frequency_Hz(Ep * I, m_per_length, g.reed_length_m),
-            analytic::added_mass_kg(p.fluid.density_kg_per_m3, g.reed_length_m, g.reed_width_m)};
+            analytic::added_mass_kg(p.fluid.density_kg_per_m3, g.reed_length_m, W)};
   }
 
   InFluid in_fluid(const StiffnessResult &r, const ReedBounds &b, double factor)
