@@ -282,11 +282,15 @@ namespace rectify::geometry
         while (sign * sweep < 0)
           sweep += sign * 2 * M_PI;
         const auto steps = static_cast<std::size_t>(std::max(1.0, std::ceil(std::abs(sweep) / max_step_rad - 1e-9)));
-        for (std::size_t k = 0; k <= steps; ++k)
+        // The arc's ends are the tangent points themselves (exactly on the
+        // edges: a fillet's end on an axis-parallel edge keeps its coordinate).
+        out.push_back(t0);
+        for (std::size_t k = 1; k < steps; ++k)
           {
             const double a = a0 + sweep * static_cast<double>(k) / static_cast<double>(steps);
             out.push_back({c[0] + radii[i] * std::cos(a), c[1] + radii[i] * std::sin(a)});
           }
+        out.push_back(t1);
       }
     // A fillet that uses its whole edge leaves its tangent point twice.
     Polygon dedup;

@@ -58,7 +58,7 @@ namespace rectify::mesher::detail
       }
   }
 
-  TetMesh assemble_fluid(TetMesh &all, const Layout &lay, const PortPolygon &polygon)
+  TetMesh assemble_fluid(TetMesh &all, const Layout &lay, const std::vector<PortPolygon> &ports)
   {
     const auto  &g  = lay.g;
     const double hp = 0.5 * lay.Wp;
@@ -98,20 +98,25 @@ namespace rectify::mesher::detail
                                 : g.outlet_face == "x-max" ? lay.Lp
                                 : g.outlet_face == "y-min" ? -hp
                                                            : hp;
-    const double r_in = polygon.inradius, r_out = polygon.R;
+    // A face on a port's side wall: every vertex on its mouth's edge, within its bore.
     auto on_port_side = [&](const std::array<std::uint32_t, 3> &f) {
-      for (auto v : f)
+      for (const auto &port : ports)
         {
-          const auto  &p = all.vertices[v];
-          const double d = std::hypot(p[0] - g.port_center_x_m, p[1]);
-          if (p[2] > tol || p[2] < -lay.ell - tol || d < r_in * (1 - 1e-9) || d > r_out * (1 + 1e-9))
-            return false;
+          bool all_on = true;
+          for (auto v : f)
+            {
+              const auto &p = all.vertices[v];
+              all_on = all_on && p[2] <= tol && p[2] >= -port.length - tol && port.on_edge(p[0], p[1], tol);
+            }
+          if (all_on)
+            return true;
         }
-      return true;
+      return false;
     };
     auto classify_outer = [&](const std::array<std::uint32_t, 3> &f) -> std::uint8_t {
-      if (on(f, 2, -lay.ell))
-        return inlet;
+      for (const auto &port : ports)
+        if (on(f, 2, -port.length))
+          return inlet;
       if (on(f, outlet_axis, outlet_value))
         return outlet;
       if (on(f, 0, 0) || on(f, 0, lay.Lp) || on(f, 1, -hp) || on(f, 1, hp) || on(f, 2, lay.Hp) ||

@@ -54,23 +54,29 @@ namespace rectify::mesher::detail
   }
 
   void build_port(const Layout &lay, const PlanarMesh &floor, const std::vector<FloorPart> &where_tri,
-                  TetMesh &all)
+                  const std::vector<int> &port_of, const std::vector<PortPolygon> &ports, TetMesh &all)
   {
     const auto nf = static_cast<std::uint32_t>(floor.points.size());
     const auto N1 = static_cast<std::uint32_t>(lay.N + 1);
-    const auto n_port_layers =
-      static_cast<std::uint32_t>(std::max(1.0, std::ceil(lay.ell / lay.s.port_layer_m - 1e-9)));
+    // Each port's bore in layers of about port_layer_m, down to its inlet face z = -length.
+    std::vector<std::uint32_t> n_layers;
+    for (const auto &p : ports)
+      n_layers.push_back(static_cast<std::uint32_t>(std::max(1.0, std::ceil(p.length / lay.s.port_layer_m - 1e-9))));
     std::vector<std::int64_t> port_column(nf, -1); // first vertex of the column below the floor
     for (std::size_t f = 0; f < floor.triangles.size(); ++f)
       if (where_tri[f] == FloorPart::port)
-        for (auto v : floor.triangles[f])
-          if (port_column[v] < 0)
-            {
-              port_column[v] = static_cast<std::int64_t>(all.vertices.size());
-              for (std::uint32_t k = 1; k <= n_port_layers; ++k)
-                all.vertices.push_back({floor.points[v][0], floor.points[v][1],
-                                        k == n_port_layers ? -lay.ell : -lay.ell * k / n_port_layers});
-            }
+        {
+          const auto   k   = static_cast<std::size_t>(port_of[f]);
+          const double ell = ports[k].length;
+          const auto   n   = n_layers[k];
+          for (auto v : floor.triangles[f])
+            if (port_column[v] < 0)
+              {
+                port_column[v] = static_cast<std::int64_t>(all.vertices.size());
+                for (std::uint32_t i = 1; i <= n; ++i)
+                  all.vertices.push_back({floor.points[v][0], floor.points[v][1], i == n ? -ell : -ell * i / n});
+              }
+        }
     auto port_vertex = [&](std::uint32_t v, std::uint32_t k) {
       return k == 0 ? v * N1 : static_cast<std::uint32_t>(port_column[v] + k - 1);
     };
@@ -78,7 +84,7 @@ namespace rectify::mesher::detail
       if (where_tri[f] == FloorPart::port)
         {
           const auto &t = floor.triangles[f];
-          for (std::uint32_t k = 0; k < n_port_layers; ++k)
+          for (std::uint32_t k = 0; k < n_layers[static_cast<std::size_t>(port_of[f])]; ++k)
             split_prism(t, {port_vertex(t[0], k), port_vertex(t[1], k), port_vertex(t[2], k)},
                         {port_vertex(t[0], k + 1), port_vertex(t[1], k + 1), port_vertex(t[2], k + 1)},
                         tag_port, all);

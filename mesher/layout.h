@@ -26,17 +26,22 @@ namespace rectify::mesher::detail
   };
   inline bool is_fluid(std::uint8_t tag) { return tag < n_regions; }
 
-  /// The port's polygon: a vertex wherever a station line crosses the
-  /// circle (so station lines end on it), more vertices where those are
-  /// further apart than 2 pi / n_port, and the radius chosen so that the
-  /// polygon's area is pi r^2 exactly. Counter-clockwise.
+  /// A port's mouth as the floor holds it: a vertex wherever a station line
+  /// crosses its edge (so station lines end on it). A circle: more vertices
+  /// where those are further apart than 2 pi / n_port, the radius chosen so
+  /// that the polygon's area is pi r^2 exactly. A polygon port: its own
+  /// corners. Counter-clockwise.
   struct PortPolygon
   {
     std::vector<Point2>      points;
     std::vector<std::size_t> station; ///< per point: station index, or npos
-    double                   R = 0;   ///< circumradius
+    double                   R = 0;   ///< a circle's circumradius
     double                   inradius = 0;
+    double                   length = 0; ///< the bore, inlet face at z = -length
     bool contains(double x, double y) const;
+    /// True if (x, y) lies on the polygon's edge, within `tol`.
+    bool on_edge(double x, double y, double tol) const;
+    double area() const;
   };
 
   /// The domain's dimensions at one opening, and the layer structure.
@@ -47,6 +52,9 @@ namespace rectify::mesher::detail
     SampledShape         shape;
     double               opening;
     double               L, W, t, Lp, Wp, Hp, ell, r;
+    geometry::Polygon    outline;   ///< the reed's boundary (fillets drawn), counter-clockwise
+    bool                 rectangle; ///< the shorthand's rectangle [0, L] x [-W/2, W/2]
+    std::vector<Port>    ports;
     std::size_t          n_port = 0;
     std::size_t          j_closed = 0;
     double               x_closed = 0, h_cut = 0;
@@ -56,8 +64,8 @@ namespace rectify::mesher::detail
       : g(p.geometry), s(p.settings), shape(p.sampled_shape()),
         opening(x_tip), L(g.reed_length_m), W(g.reed_width_m), t(g.reed_thickness_m),
         Lp(g.pocket_length_m), Wp(g.pocket_width_m), Hp(g.pocket_height_m), ell(g.port_length_m),
-        r(0.5 * g.port_diameter_m), Ng(s.gap_layers), Nr(s.reed_layers), Na(s.above_layers),
-        N(Ng + Nr + Na)
+        r(0.5 * g.port_diameter_m), outline(g.reed_boundary()), rectangle(g.is_shorthand()), ports(g.ports()),
+        Ng(s.gap_layers), Nr(s.reed_layers), Na(s.above_layers), N(Ng + Nr + Na)
     {
       n_port = s.port_segments > 0 ? static_cast<std::size_t>(s.port_segments)
                                    : static_cast<std::size_t>(std::max(
@@ -72,11 +80,17 @@ namespace rectify::mesher::detail
 
     double sampled_h(double x) const { return opening * shape(std::min(x, L)); }
 
-    /// Distance from (x, y) to the reed's footprint [0, L] x [-W/2, W/2].
+    /// Distance from (x, y) to the reed's footprint (0 on and under it).
     double distance_to_reed(double x, double y) const
     {
-      const double dx = std::max(0.0, x - L), dy = std::max(0.0, std::abs(y) - 0.5 * W);
-      return std::hypot(dx, dy);
+      if (rectangle)
+        {
+          const double dx = std::max(0.0, x - L), dy = std::max(0.0, std::abs(y) - 0.5 * W);
+          return std::hypot(dx, dy);
+        }
+      if (geometry::side_of(outline, {x, y}) != geometry::Side::outside)
+        return 0.0;
+      return geometry::distance_to_boundary(outline, {x, y});
     }
 
     /// z of level m (0..N) in the column at floor point (x, y).
@@ -107,8 +121,9 @@ namespace rectify::mesher::detail
       return d == 0 ? s.size_reed_m : std::min(s.size_far_m, s.size_reed_m + s.size_growth * d);
     }
 
-    PortPolygon port_polygon() const;
-};
+    /// Every port's mouth, in the order of ports().
+    std::vector<PortPolygon> port_polygons() const;
+  };
 
   /// Where a floor triangle lies.
   enum class FloorPart
@@ -119,9 +134,11 @@ namespace rectify::mesher::detail
     port     ///< under the reed, over the port
   };
 
-  PlanarMesh             mesh_floor(const Layout &layout, const PortPolygon &port);
+  PlanarMesh             mesh_floor(const Layout &layout, const std::vector<PortPolygon> &ports);
+  /// Each floor triangle's part; `port_of` gets, per triangle, the index of
+  /// the port it lies over (or -1).
   std::vector<FloorPart> classify_floor(const Layout &layout, const PlanarMesh &floor,
-                                        const PortPolygon &port);
+                                        const std::vector<PortPolygon> &ports, std::vector<int> &port_of);
   double                 min_angle_deg(const PlanarMesh &mesh);
 
   /// Splits the prism between two levels (lo, hi points of the floor
@@ -142,14 +159,14 @@ namespace rectify::mesher::detail
   void build_slab(const Layout &layout, const PlanarMesh &floor, const std::vector<FloorPart> &parts,
                   TetMesh &all);
   void build_port(const Layout &layout, const PlanarMesh &floor, const std::vector<FloorPart> &parts,
-                  TetMesh &all);
+                  const std::vector<int> &port_of, const std::vector<PortPolygon> &ports, TetMesh &all);
   /// TetGen's tetrahedra between the slab's top and the ceiling, added to `all`;
   /// returns TetGen's switches.
   std::string build_pocket(const Layout &layout, const PlanarMesh &floor, TetMesh &all);
   /// Orients the cells, finds the boundary faces and their ids, and returns
   /// the fluid cells with the vertices they use. Throws MeshError for a
   /// degenerate cell or a mesh that does not conform.
-  TetMesh assemble_fluid(TetMesh &all, const Layout &layout, const PortPolygon &port);
+  TetMesh assemble_fluid(TetMesh &all, const Layout &layout, const std::vector<PortPolygon> &ports);
 
   /// "(x, y, z) mm" for messages.
   std::string where(const Point3 &p);

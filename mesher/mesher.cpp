@@ -18,7 +18,6 @@ namespace rectify::mesher
 
   ValveMesh mesh_valve(const MeshParameters &parameters, double opening, bool verbose)
   {
-    parameters.geometry.require_rectangle_over_one_circle("the mesher");
     const auto start = Clock::now();
     auto       stage = start;
     ValveMesh  result;
@@ -62,23 +61,49 @@ namespace rectify::mesher
       throw InputError("[mesh] gap_cutoff_ratio = " + format_number(s.gap_cutoff_ratio) +
                        ": at tip opening " + format_number(opening) + " m the cut-off gap (" +
                        format_number(lay.h_cut) + " m) is not thinner than the reed; lower it");
-    if (g.port_center_x_m - 1.01 * lay.r <= lay.x_closed + 0.5 * s.size_reed_m)
-      throw InputError("[mesh] gap_cutoff_ratio = " + format_number(s.gap_cutoff_ratio) +
-                       ": the gap treated as closed (up to " + format_number(lay.x_closed) +
-                       " m from the clamp line) reaches the port; lower it");
+    for (const auto &port : lay.ports)
+      {
+        double x_min = port.center_m[0] - 1.01 * 0.5 * port.diameter_m; // a circle's polygon reaches past r
+        if (!port.circular)
+          {
+            x_min = port.outline_m.front()[0];
+            for (const auto &q : port.outline_m)
+              x_min = std::min(x_min, q[0]);
+          }
+        if (x_min <= lay.x_closed + 0.5 * s.size_reed_m)
+          throw InputError("[mesh] gap_cutoff_ratio = " + format_number(s.gap_cutoff_ratio) +
+                           ": the gap treated as closed (up to " + format_number(lay.x_closed) +
+                           " m from the clamp line) reaches a port; lower it");
+      }
 
     // 1. The floor.
-    const PortPolygon polygon = lay.port_polygon();
-    const PlanarMesh  floor   = mesh_floor(lay, polygon);
-    const auto        parts   = classify_floor(lay, floor, polygon);
+    const auto       polygons = lay.port_polygons();
+    const PlanarMesh floor    = mesh_floor(lay, polygons);
+    std::vector<int> port_of;
+    const auto       parts = classify_floor(lay, floor, polygons, port_of);
     info.n_floor_triangles    = floor.triangles.size();
+    {
+      // The floor under the reed is the reed's outline, to rounding.
+      double under = 0;
+      for (std::size_t f = 0; f < floor.triangles.size(); ++f)
+        if (parts[f] != FloorPart::outside)
+          {
+            const auto &a = floor.points[floor.triangles[f][0]], &b = floor.points[floor.triangles[f][1]],
+                       &c = floor.points[floor.triangles[f][2]];
+            under += 0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]));
+          }
+      const double area = std::abs(geometry::signed_area(lay.outline));
+      if (std::abs(under - area) > 1e-9 * area)
+        throw MeshError("the floor triangulation does not follow the reed's outline: " + format_number(under) +
+                        " m^2 under the reed for an outline of " + format_number(area) + " m^2");
+    }
     lap("floor triangulation (CGAL)");
 
     // 2. The layered slab and 3. the port.
     TetMesh all;
     build_slab(lay, floor, parts, all);
     lap("layered slab");
-    build_port(lay, floor, parts, all);
+    build_port(lay, floor, parts, port_of, polygons, all);
     lap("port extrusion");
 
     // 4. The pocket above the slab (TetGen).
@@ -88,7 +113,7 @@ namespace rectify::mesher
     lap("pocket surface and tetrahedra (CGAL, TetGen)");
 
     // 5. Orientation, boundary ids; the fluid cells only.
-    result.mesh          = assemble_fluid(all, lay, polygon);
+    result.mesh          = assemble_fluid(all, lay, polygons);
     const TetMesh &mesh  = result.mesh;
     lap("orientation and boundary ids");
 
@@ -97,7 +122,9 @@ namespace rectify::mesher
     info.n_vertices           = mesh.vertices.size();
     info.shape                = parameters.settings.shape;
     info.gap_layers           = lay.Ng;
-    info.port_segments        = polygon.points.size();
+    info.port_segments        = 0;
+    for (const auto &poly : polygons)
+      info.port_segments += poly.points.size();
     info.n_stations           = lay.shape.stations().size();
     info.closed_to_m          = lay.x_closed;
     info.cutoff_thickness_m   = lay.h_cut;
@@ -106,11 +133,47 @@ namespace rectify::mesher
     info.quality.min_floor_angle_deg = min_angle_deg(floor);
     info.fluid_volume_m3      = info.quality.all.volume_m3;
     info.gap_volume_m3        = info.quality.region[gap].volume_m3;
-    const double closed_integral = lay.shape.integral_to_station(lay.j_closed);
-    const double reed_integral   = lay.shape.integral_to_station(lay.shape.stations().size() - 1);
-    info.exact_fluid_volume_m3 = lay.Lp * lay.Wp * lay.Hp + M_PI * lay.r * lay.r * lay.ell -
-                                 lay.W * lay.L * lay.t - lay.W * opening * closed_integral;
-    info.exact_gap_volume_m3   = lay.W * opening * (reed_integral - closed_integral);
+    // The exact volumes: the gap under the reed is opening x phi(s) over its
+    // chord w(s); phi is linear between stations, w between the outline's
+    // corners, so phi w is quadratic between their union: Simpson is exact.
+    double ports_volume = 0, ports_area = 0;
+    for (const auto &poly : polygons)
+      ports_volume += poly.area() * poly.length, ports_area += poly.area();
+    double closed_integral = 0, reed_integral = 0;
+    if (lay.rectangle)
+      {
+        closed_integral = lay.W * lay.shape.integral_to_station(lay.j_closed);
+        reed_integral   = lay.W * lay.shape.integral_to_station(lay.shape.stations().size() - 1);
+      }
+    else
+      {
+        std::vector<double> breaks = lay.shape.stations();
+        for (const auto &q : lay.outline)
+          breaks.push_back(std::clamp(q[0], 0.0, lay.L));
+        std::sort(breaks.begin(), breaks.end());
+        const auto chord = [&](double x) {
+          double w = 0;
+          for (const auto &[y0, y1] : geometry::chord_intervals(lay.outline, std::clamp(x, 1e-12 * lay.L, (1 - 1e-12) * lay.L)))
+            w += y1 - y0;
+          return w;
+        };
+        for (std::size_t k = 1; k < breaks.size(); ++k)
+          {
+            const double a = breaks[k - 1], b = breaks[k];
+            if (!(b > a))
+              continue;
+            const auto   f = [&](double x) { return lay.shape(x) * chord(x); };
+            // inside the interval, away from the corners where chord() jumps
+            const double e = 1e-9 * (b - a);
+            const double simpson = (b - a) / 6 * (f(a + e) + 4 * f(0.5 * (a + b)) + f(b - e));
+            reed_integral += simpson;
+            if (b <= lay.x_closed + 1e-12 * lay.L)
+              closed_integral += simpson;
+          }
+      }
+    info.exact_fluid_volume_m3 = lay.Lp * lay.Wp * lay.Hp + ports_volume -
+                                 std::abs(geometry::signed_area(lay.outline)) * lay.t - opening * closed_integral;
+    info.exact_gap_volume_m3   = opening * (reed_integral - closed_integral);
     for (const auto &f : mesh.boundary)
       {
         ++info.boundary_faces[f.id];
@@ -118,7 +181,7 @@ namespace rectify::mesher
                                                      mesh.vertices[f.vertices[1]],
                                                      mesh.vertices[f.vertices[2]]);
       }
-    info.exact_inlet_area_m2  = M_PI * lay.r * lay.r;
+    info.exact_inlet_area_m2  = ports_area;
     info.exact_outlet_area_m2 = g.outlet_area_m2();
     info.surface              = check_surface(mesh);
     lap("checks (CGAL surface, quality)");

@@ -86,6 +86,34 @@ namespace rectify::mesher
     // on 4000 panels: exact for the sampled shape's linear pieces up to the
     // panels that hold a station). Port: s = c + r sin(theta), its chord
     // 2 r cos(theta) (at most W), ds = r cos(theta) dtheta: smooth in theta.
+    if (!g.is_shorthand())
+      {
+        // Any outline and ports: phi(s) times the seat's chord at s (the
+        // reed's chord less the ports'), Gauss with 2 points on 20 000 panels.
+        const auto   outline = g.reed_boundary();
+        const auto   ports   = g.ports();
+        const double L = g.reed_length_m, h = L / 20000, gp = 0.5 / std::sqrt(3.0);
+        const auto   seat = [&](double x) {
+          double w = 0;
+          for (const auto &[y0, y1] : geometry::chord_intervals(outline, x))
+            w += y1 - y0;
+          for (const auto &port : ports)
+            if (port.circular)
+              {
+                const double r = 0.5 * port.diameter_m, d = x - port.center_m[0];
+                w -= d * d < r * r ? 2 * std::sqrt(r * r - d * d) : 0.0;
+              }
+            else
+              for (const auto &[y0, y1] : geometry::chord_intervals(port.outline_m, x))
+                w -= y1 - y0;
+          return w;
+        };
+        double area = 0;
+        for (int k = 0; k < 20000; ++k)
+          for (const double q : {(k + 0.5 - gp) * h, (k + 0.5 + gp) * h})
+            area += 0.5 * h * shape(q) * seat(q);
+        return area;
+      }
     const double L = g.reed_length_m, W = g.reed_width_m, c = g.port_center_x_m, r = 0.5 * g.port_diameter_m;
     const int    n = 4000;
     const double h = L / n, gp = 0.5 / std::sqrt(3.0);

@@ -59,7 +59,8 @@ namespace rectify::mesher
   /// reed [0, L] x [-W/2, W/2] less the port. A film whose pressure is p
   /// everywhere under the reed pushes on its tip-referred coordinate with
   /// p times this (docs/fluid-loading.md: the cavitation limit of the film's
-  /// suction on a lifting reed).
+  /// suction on a lifting reed). Any outline: the reed's chord at s less the
+  /// ports' chords.
   double seat_film_modal_area_m2(const ValveGeometry &geometry, const std::function<double(double)> &shape);
 
   /// "100um", "1.21mm", "2e-6", "2e-6m" -> metres. Throws InputError naming

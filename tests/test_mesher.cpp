@@ -417,3 +417,121 @@ TEST(Mesher, CommandWritesVtuMshAndSummary)
   EXPECT_NE(r.output.find("ceiling"), std::string::npos) << r.output;
   EXPECT_FALSE(std::filesystem::exists(dir / "bad"));
 }
+
+// The valve drawn as an outline (issue 19): every example geometry
+// (rounded, tapered, necked reeds; two ports; a slotted port) meshes with
+// the fluid volume of its geometry, computed here independently: pocket +
+// each port's mouth x its bore - the reed's area x thickness - the closed
+// part of the gap, opening x integral of phi(s) w(s) (w the reed's chord at
+// s, summed on 400 000 midpoints); the gap's volume likewise; the inlet's
+// area the ports'; a closed, outward boundary; the bulk as isotropic as
+// the rectangle's; every layered cell a third of a vertical prism.
+TEST(Mesher, EveryExampleOutlineMeshesWithItsGeometrysVolume)
+{
+  const auto dir = std::filesystem::path(RECTIFY_SOURCE_DIR) / "cases" / "geometries";
+  for (const char *name : {"rounded-tip", "tapered", "necked", "two-ports", "slotted-port"})
+    {
+      const auto p        = MeshParameters::from_case(CaseFile::load(dir / (std::string(name) + ".toml")));
+      const auto &g       = p.geometry;
+      const auto outline  = g.reed_boundary();
+      const auto shape    = p.sampled_shape();
+      double     ports_volume = 0, ports_area = 0;
+      for (const auto &port : g.ports())
+        ports_volume += port.area_m2() * port.length_m, ports_area += port.area_m2();
+      const auto integral = [&](double a, double b) {
+        const int n = 400000;
+        double    sum = 0;
+        for (int k = 0; k < n; ++k)
+          {
+            const double x = a + (b - a) * (k + 0.5) / n;
+            double       w = 0;
+            for (const auto &[y0, y1] : geometry::chord_intervals(outline, x))
+              w += y1 - y0;
+            sum += shape(x) * w;
+          }
+        return sum * (b - a) / n;
+      };
+      for (double opening : {2e-6, 100e-6, 1e-3})
+        {
+          SCOPED_TRACE(std::string(name) + " at " + std::to_string(opening));
+          const auto  r = mesh_valve(p, opening);
+          const auto &i = r.info;
+          const double closed = opening * integral(0, i.closed_to_m);
+          const double gap    = opening * integral(i.closed_to_m, g.reed_length_m);
+          const double fluid  = g.pocket_length_m * g.pocket_width_m * g.pocket_height_m + ports_volume -
+                               g.reed_area_m2() * g.reed_thickness_m - closed;
+          EXPECT_NEAR(i.fluid_volume_m3 / fluid, 1.0, 1e-9);
+          EXPECT_NEAR(i.gap_volume_m3 / gap, 1.0, 1e-6); // the midpoint sums' own error
+          EXPECT_NEAR(i.fluid_volume_m3 / i.exact_fluid_volume_m3, 1.0, 1e-12);
+          EXPECT_NEAR(i.gap_volume_m3 / i.exact_gap_volume_m3, 1.0, 1e-9);
+          EXPECT_TRUE(i.surface.closed && i.surface.outward && !i.surface.self_intersecting);
+          EXPECT_NEAR(i.surface.volume_m3 / i.fluid_volume_m3, 1.0, 1e-9);
+          // the circles' polygons keep pi r^2; a polygon port is its own outline
+          EXPECT_NEAR(i.boundary_area_m2[inlet] / ports_area, 1.0, 1e-9);
+          EXPECT_EQ(faces_of_one_cell(r.mesh).size(), r.mesh.boundary.size());
+          EXPECT_GE(i.quality.region[bulk].min_dihedral_deg, 4.0);
+          EXPECT_LE(i.quality.region[bulk].max_aspect_ratio, 15.0);
+          for (std::size_t c = 0; c < r.mesh.cells.size(); ++c)
+            ASSERT_GT(cell_volume(r.mesh, c), 0.0) << "inverted cell " << c;
+        }
+    }
+}
+
+// The reference rectangle drawn as an outline goes through the outline's
+// code (its outline refined at the stations, classified by CGAL's side
+// test) and gives the shorthand's mesh, vertex for vertex.
+TEST(Mesher, TheReferenceRectangleDrawnAsAnOutlineGivesTheShorthandsMesh)
+{
+  const auto outline =
+    MeshParameters::from_case(CaseFile::load(std::filesystem::path(RECTIFY_SOURCE_DIR) / "cases/geometries/rectangle-outline.toml"));
+  ASSERT_FALSE(outline.geometry.is_shorthand());
+  for (double opening : {2e-6, 300e-6})
+    {
+      const auto a = mesh_valve(reference(), opening), b = mesh_valve(outline, opening);
+      EXPECT_EQ(a.mesh.vertices, b.mesh.vertices) << opening;
+      EXPECT_EQ(a.mesh.cells, b.mesh.cells) << opening;
+      EXPECT_EQ(a.mesh.boundary.size(), b.mesh.boundary.size()) << opening;
+    }
+}
+
+// The seat film's modal area over an outline (issue 19): the reference
+// rectangle drawn as an outline gives the shorthand's; two ports and a
+// rounded tip against a 2D midpoint sum over the seat (phi(x) over the
+// reed less its ports, 2000 x 2000 cells).
+TEST(Mesher, SeatFilmModalAreaOverAnyOutline)
+{
+  const auto dir  = std::filesystem::path(RECTIFY_SOURCE_DIR) / "cases" / "geometries";
+  const auto beam = mesher::ReedShape::beam(6.1e-3, 3.3e-3);
+  const auto phi  = [&](double s) { return beam(std::min(s, 6.1e-3)); };
+  const ValveGeometry shorthand;
+  const auto          rectangle = ValveGeometry::from_case(CaseFile::load(dir / "rectangle-outline.toml"));
+  EXPECT_NEAR(mesher::seat_film_modal_area_m2(rectangle, phi) / mesher::seat_film_modal_area_m2(shorthand, phi), 1.0,
+              1e-6);
+  for (const char *name : {"two-ports.toml", "rounded-tip.toml", "slotted-port.toml"})
+    {
+      const auto g       = ValveGeometry::from_case(CaseFile::load(dir / name));
+      const auto outline = g.reed_boundary();
+      const auto ports   = g.ports();
+      double     y0 = 0, y1 = 0;
+      for (const auto &p : outline)
+        y0 = std::min(y0, p[1]), y1 = std::max(y1, p[1]);
+      const int    n  = 2000;
+      const double dx = g.reed_length_m / n, dy = (y1 - y0) / n;
+      double       sum = 0;
+      for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j)
+          {
+            const geometry::XY q{(i + 0.5) * dx, y0 + (j + 0.5) * dy};
+            if (geometry::side_of(outline, q) != geometry::Side::inside)
+              continue;
+            bool in_port = false;
+            for (const auto &port : ports)
+              in_port = in_port || port.contains(q);
+            if (!in_port)
+              sum += phi(q[0]) * dx * dy;
+          }
+      const double area = mesher::seat_film_modal_area_m2(g, phi);
+      std::printf("%s: seat film modal area %.6g mm^2 (midpoint sum %.6g)\n", name, area * 1e6, sum * 1e6);
+      EXPECT_NEAR(area / sum, 1.0, 2e-3) << name; // the midpoint sum's staircase edges: O(1 / n) of the edge's share
+    }
+}
