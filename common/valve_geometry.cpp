@@ -67,8 +67,7 @@ namespace rectify
     }
 
     /// The outline a case gives under `table`: `prefix`_m (points) or
-    /// `prefix`_csv (a file); empty if neither. Clockwise outlines are
-    /// reversed; `reversed` says so.
+    /// `prefix`_csv (a file); empty if neither. As written (either way round).
     Polygon read_outline(const CaseFile &f, const std::string &table, const std::string &prefix)
     {
       const bool as_points = f.has(table, prefix + "_m"), as_csv = f.has(table, prefix + "_csv");
@@ -192,39 +191,10 @@ namespace rectify
     return a;
   }
 
-  bool ValveGeometry::is_rectangle_over_one_circle() const
+  bool ValveGeometry::has_one_round_port() const
   {
     const auto ps = ports();
-    if (ps.size() != 1 || !ps[0].circular || ps[0].center_m[1] != 0.0)
-      return false;
-    if (reed_outline_m.empty())
-      return true;
-    for (const double r : fillet_radii())
-      if (r > 0)
-        return false;
-    const Polygon c = reed_corners();
-    if (c.size() != 4)
-      return false;
-    const double tol = 1e-12;
-    const double L = reed_length_m, h = 0.5 * reed_width_m;
-    for (const XY &p : c)
-      {
-        const bool x_ok = std::abs(p[0]) <= tol || std::abs(p[0] - L) <= tol;
-        const bool y_ok = std::abs(std::abs(p[1]) - h) <= tol;
-        if (!x_ok || !y_ok)
-          return false;
-      }
-    const auto [y0, y1] = clamp_line_y();
-    return std::abs(y0 + h) <= tol && std::abs(y1 - h) <= tol;
-  }
-
-  void ValveGeometry::require_rectangle_over_one_circle(const std::string &stage) const
-  {
-    if (!is_rectangle_over_one_circle())
-      throw InputError(stage + " handles so far a rectangular reed with sharp corners, clamped along its whole "
-                               "edge on x = 0 and centred on y = 0, over one circular port on y = 0; this geometry "
-                               "has a reed of " + std::to_string(reed_corners().size()) + " corners and " +
-                       std::to_string(ports().size()) + " port(s) (docs/geometry.md, what each stage takes)");
+    return ps.size() == 1 && ps[0].circular;
   }
 
   double ValveGeometry::seat_land_m() const
@@ -549,25 +519,16 @@ namespace rectify
       }
     else
       {
-        Polygon corners = read_outline(f, t, "reed_outline");
-        if (corners.size() >= 3 && !geometry::first_self_intersection(corners) && geometry::signed_area(corners) < 0)
+        g.reed_outline_m = read_outline(f, t, "reed_outline");
+        if (f.has(t, "reed_fillet_radii_m"))
+          g.reed_fillet_radii_m = f.reals(t, "reed_fillet_radii_m", {}, Bounds::non_negative());
+        // Counter-clockwise from here on (a simple outline only: check_outline
+        // names a crossing in the file's order); the radii follow their corners.
+        const auto &c = g.reed_outline_m;
+        if (c.size() >= 3 && !geometry::first_self_intersection(c) && geometry::signed_area(c) < 0)
           {
-            std::reverse(corners.begin(), corners.end());
-            // the radii below are given in the file's order: reverse them alike
-            g.reed_outline_m = corners;
-            std::vector<double> radii;
-            if (f.has(t, "reed_fillet_radii_m"))
-              {
-                radii = f.reals(t, "reed_fillet_radii_m", {}, Bounds::non_negative());
-                std::reverse(radii.begin(), radii.end());
-              }
-            g.reed_fillet_radii_m = radii;
-          }
-        else
-          {
-            g.reed_outline_m = corners;
-            if (f.has(t, "reed_fillet_radii_m"))
-              g.reed_fillet_radii_m = f.reals(t, "reed_fillet_radii_m", {}, Bounds::non_negative());
+            std::reverse(g.reed_outline_m.begin(), g.reed_outline_m.end());
+            std::reverse(g.reed_fillet_radii_m.begin(), g.reed_fillet_radii_m.end());
           }
         if (f.has(t, "reed_fillet_radii_m") && f.has(t, "reed_fillet_radius_m"))
           throw InputError(f.where(t, "reed_fillet_radius_m") +

@@ -101,12 +101,8 @@ namespace rectify
     double                reed_area_m2() const;
     /// Total port area.
     double ports_area_m2() const;
-    /// A rectangle [0, L] x [-W/2, W/2] with sharp corners over one circular
-    /// port on y = 0, written either way: what the mesher and the stiffness
-    /// solver handle so far.
-    bool is_rectangle_over_one_circle() const;
-    /// Throws InputError naming `stage` unless is_rectangle_over_one_circle().
-    void require_rectangle_over_one_circle(const std::string &stage) const;
+    /// One round port: what the flow solver's inflow takes so far.
+    bool has_one_round_port() const;
 
     /// The narrowest seat land: over every port, the smallest distance from
     /// its edge to the reed's outline.

@@ -22,7 +22,10 @@ namespace rectify::mesher::detail
       for (std::size_t j = 0; j < st.size(); ++j)
         if (std::abs(st[j] - c) < r * 1.001)
           crossing.push_back(j);
-      const double max_step = 2 * M_PI / static_cast<double>(lay.n_port);
+      const auto   n_port   = lay.s.port_segments > 0
+                                ? static_cast<std::size_t>(lay.s.port_segments)
+                                : static_cast<std::size_t>(std::max(16.0, 4 * std::ceil(2 * M_PI * r / lay.s.size_reed_m / 4)));
+      const double max_step = 2 * M_PI / static_cast<double>(n_port);
       struct Angle { double theta; std::size_t station; };
       auto crossing_angles = [&](double R) {
         std::vector<Angle> a;

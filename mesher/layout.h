@@ -28,7 +28,8 @@ namespace rectify::mesher::detail
 
   /// A port's mouth as the floor holds it: a vertex wherever a station line
   /// crosses its edge (so station lines end on it). A circle: more vertices
-  /// where those are further apart than 2 pi / n_port, the radius chosen so
+  /// where those are further apart than 2 pi / n ([mesh] port_segments, or
+  /// about one per size_reed_m of its circumference, at least 16), the radius chosen so
   /// that the polygon's area is pi r^2 exactly. A polygon port: its own
   /// corners. Counter-clockwise.
   struct PortPolygon
@@ -51,11 +52,10 @@ namespace rectify::mesher::detail
     const MeshSettings  &s;
     SampledShape         shape;
     double               opening;
-    double               L, W, t, Lp, Wp, Hp, ell, r;
+    double               L, W, t, Lp, Wp, Hp;
     geometry::Polygon    outline;   ///< the reed's boundary (fillets drawn), counter-clockwise
     bool                 rectangle; ///< the shorthand's rectangle [0, L] x [-W/2, W/2]
     std::vector<Port>    ports;
-    std::size_t          n_port = 0;
     std::size_t          j_closed = 0;
     double               x_closed = 0, h_cut = 0;
     long                 Ng, Nr, Na, N;
@@ -63,13 +63,10 @@ namespace rectify::mesher::detail
     Layout(const MeshParameters &p, double x_tip)
       : g(p.geometry), s(p.settings), shape(p.sampled_shape()),
         opening(x_tip), L(g.reed_length_m), W(g.reed_width_m), t(g.reed_thickness_m),
-        Lp(g.pocket_length_m), Wp(g.pocket_width_m), Hp(g.pocket_height_m), ell(g.port_length_m),
-        r(0.5 * g.port_diameter_m), outline(g.reed_boundary()), rectangle(g.is_shorthand()), ports(g.ports()),
+        Lp(g.pocket_length_m), Wp(g.pocket_width_m), Hp(g.pocket_height_m),
+        outline(g.reed_boundary()), rectangle(g.is_shorthand()), ports(g.ports()),
         Ng(s.gap_layers), Nr(s.reed_layers), Na(s.above_layers), N(Ng + Nr + Na)
     {
-      n_port = s.port_segments > 0 ? static_cast<std::size_t>(s.port_segments)
-                                   : static_cast<std::size_t>(std::max(
-                                       16.0, 4 * std::ceil(2 * M_PI * r / s.size_reed_m / 4)));
       const auto &phi = shape.values();
       j_closed        = 1;
       while (j_closed + 1 < phi.size() && phi[j_closed] < s.gap_cutoff_ratio)

@@ -54,8 +54,17 @@ namespace rectify::stokes
 
   ReynoldsNumbers reynolds_numbers(const ValveGeometry &g, const FluidParameters &fluid, double Q)
   {
+    // The port's: mean velocity Q / A over the hydraulic diameter 4 A / P
+    // (the ports' areas and perimeters summed); the gap exit's: Q over the
+    // reed's free edge (its perimeter less the clamp line: 2 L + W for the
+    // rectangle).
     const double rho = fluid.density_kg_per_m3, mu = fluid.viscosity_Pa_s;
-    return {4 * rho * Q / (M_PI * g.port_diameter_m * mu), 2 * rho * Q / ((2 * g.reed_length_m + g.reed_width_m) * mu)};
+    double       perimeter = 0;
+    for (const auto &port : g.ports())
+      perimeter += port.perimeter_m();
+    const auto   clamp = g.clamp_line_y();
+    const double edge  = geometry::perimeter(g.reed_boundary()) - (clamp[1] - clamp[0]);
+    return {4 * rho * Q / (perimeter * mu), 2 * rho * Q / (edge * mu)};
   }
 
   double thin_gap_R(const mesher::MeshParameters &mp, double closed_to_m, double opening, double mu)

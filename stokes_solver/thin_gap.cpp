@@ -136,7 +136,7 @@ namespace rectify::stokes
             if (a < 0)
               continue;
             entries.emplace_back(a, a, 4.0);
-            for (const auto [di, dj] : {std::pair{-1, 0}, std::pair{1, 0}, std::pair{0, -1}, std::pair{0, 1}})
+            for (const auto &[di, dj] : {std::pair{-1, 0}, std::pair{1, 0}, std::pair{0, -1}, std::pair{0, 1}})
               {
                 const long b = index[static_cast<std::size_t>((j + dj) * nx + (i + di))]; // the frame's cells are outside
                 if (b >= 0)

@@ -63,8 +63,8 @@ TEST(Geometry, TheOutlinePathDescribesTheReferenceValveAsTheShorthandDoes)
   EXPECT_EQ(outline.reed_width_m, shorthand.reed_width_m);
   EXPECT_DOUBLE_EQ(outline.port_diameter_m, shorthand.port_diameter_m);
   EXPECT_EQ(outline.port_center_x_m, shorthand.port_center_x_m);
-  EXPECT_TRUE(outline.is_rectangle_over_one_circle());
-  EXPECT_TRUE(shorthand.is_rectangle_over_one_circle());
+  EXPECT_TRUE(outline.has_one_round_port());
+  EXPECT_TRUE(shorthand.has_one_round_port());
   // The shorthand's record is what it always was (a map set's hash).
   EXPECT_EQ(shorthand.to_json().size(), 10u);
   EXPECT_TRUE(outline.to_json().contains("reed_outline_m"));
@@ -83,9 +83,13 @@ TEST(Geometry, AClockwiseOutlineIsTheSameReed)
   for (std::size_t i = 0; i < corners.size(); ++i)
     {
       if (corners[i][0] > 0 && corners[i][1] > 0)
-        EXPECT_EQ(radii[i], 1e-3);
+        {
+          EXPECT_EQ(radii[i], 1e-3);
+        }
       if (corners[i][0] > 0 && corners[i][1] < 0)
-        EXPECT_EQ(radii[i], 0.5e-3);
+        {
+          EXPECT_EQ(radii[i], 0.5e-3);
+        }
     }
 }
 
@@ -100,7 +104,9 @@ TEST(Geometry, FilletsCirclesAndWidthsAgainstExactValues)
   // The arcs' points lie on their circles, centred r inside both edges.
   for (const auto &p : g.reed_boundary())
     if (p[0] > L - r + 1e-12 && std::abs(p[1]) > W / 2 - r + 1e-12)
-      EXPECT_NEAR(std::hypot(p[0] - (L - r), std::abs(p[1]) - (W / 2 - r)), r, 1e-15);
+      {
+        EXPECT_NEAR(std::hypot(p[0] - (L - r), std::abs(p[1]) - (W / 2 - r)), r, 1e-15);
+      }
   // The clamp line's corners stay sharp with one radius for all.
   EXPECT_EQ(g.fillet_radii()[0], 0.0);
   EXPECT_EQ(g.fillet_radii()[3], 0.0);
@@ -161,11 +167,13 @@ TEST(Geometry, EveryExampleIsValidAndDrawn)
       EXPECT_TRUE(std::filesystem::exists(out / "reed.csv"));
       EXPECT_TRUE(std::filesystem::exists(out / "port-1.csv"));
       if (std::system("command -v gnuplot > /dev/null 2>&1") == 0)
-        EXPECT_TRUE(std::filesystem::exists(out / "geometry.png"));
+        {
+          EXPECT_TRUE(std::filesystem::exists(out / "geometry.png"));
+        }
     }
   const auto two = ValveGeometry::from_case(CaseFile::load(cases_dir() / "two-ports.toml"));
   EXPECT_EQ(two.ports().size(), 2u);
-  EXPECT_FALSE(two.is_rectangle_over_one_circle());
+  EXPECT_FALSE(two.has_one_round_port());
   EXPECT_NEAR(two.ports_area_m2(), 2 * M_PI * 1e-6, 1e-18);
 }
 

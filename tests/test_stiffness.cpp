@@ -240,7 +240,9 @@ TEST(Stiffness, TheReferenceRectangleDrawnAsAnOutlineGivesTheShorthandsReed)
       EXPECT_EQ(a.modes[k].kind, b.modes[k].kind);
       EXPECT_NEAR(b.modes[k].frequency_Hz / a.modes[k].frequency_Hz, 1.0, 3e-3) << k;
       if (a.modes[k].kind == "bending")
-        EXPECT_NEAR(b.modes[k].modal_mass_kg / a.modes[k].modal_mass_kg, 1.0, 3e-3) << k;
+        {
+          EXPECT_NEAR(b.modes[k].modal_mass_kg / a.modes[k].modal_mass_kg, 1.0, 3e-3) << k;
+        }
     }
   ASSERT_EQ(a.shape_phi.size(), b.shape_phi.size());
   for (std::size_t i = 0; i < a.shape_phi.size(); ++i)
