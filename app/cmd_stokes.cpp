@@ -62,6 +62,7 @@ namespace rectify::app
     {
       const CaseFile file    = load_case(o.case_path);
       const auto     mp      = mesher::MeshParameters::from_case(file);
+      stokes::require_one_round_port(mp.geometry);
       auto           fp      = stokes::FlowParameters::from_case(file);
       const double   opening = mesher::parse_length(o.opening, "--opening");
       if (!std::isnan(o.flow_rate))
@@ -159,6 +160,7 @@ namespace rectify::app
     {
       const CaseFile file     = load_case(o.case_path);
       const auto     mp       = mesher::MeshParameters::from_case(file);
+      stokes::require_one_round_port(mp.geometry);
       const auto     fp       = stokes::FlowParameters::from_case(file);
       const auto     openings = log_range(o.openings);
       stokes::MpiSession mpi;

@@ -205,14 +205,6 @@ namespace rectify::stokes
               const Point<3> p(m.vertices[v][0], m.vertices[v][1], m.vertices[v][2]);
               f.radius = std::max(f.radius, p.distance(f.centre));
             }
-      // The inflow below is one round port's Poiseuille profile: an inlet
-      // that is not one circle (several ports, a slot) is refused. A
-      // polygon of n >= 32 sides fills more than 0.99 of its circumcircle.
-      if (area < 0.99 * std::numbers::pi * f.radius * f.radius)
-        throw InputError("the flow solver's inflow is one round port's Poiseuille profile; this valve's inlet (" +
-                         format_number(area) + " m^2 within a circle of radius " + format_number(f.radius) +
-                         " m) is not one round port: several ports or a port that is not round are not supported "
-                         "by the flow solver yet (docs/geometry.md; the thin-gap estimate takes them)");
       return f;
     }
 
