@@ -159,6 +159,10 @@ TEST(Geometry, EveryExampleIsValidAndDrawn)
       const auto run = test_support::rectify_cli("geometry --case " + (cases_dir() / (std::string(name) + ".toml")).string() +
                                                  " --out " + out.string());
       ASSERT_EQ(run.exit_code, 0) << run.output;
+      // ... and reads as every stage reads it
+      const auto check = test_support::rectify_cli("check --case " + (cases_dir() / (std::string(name) + ".toml")).string() +
+                                                   " --out " + (out / "check").string());
+      EXPECT_EQ(check.exit_code, 0) << check.output;
       std::ifstream   in(out / "summary.json");
       nlohmann::json  s = nlohmann::json::parse(in);
       const ValveGeometry g = ValveGeometry::from_case(CaseFile::load(cases_dir() / (std::string(name) + ".toml")));
