@@ -4,7 +4,6 @@
 // .svg), with the outlines as CSV and the description, areas, seat lands and
 // the smallest features in summary.json. For drawing a new valve before any
 // meshing.
-#include <algorithm>
 #include <cstdio>
 
 #include "app/commands.h"
@@ -84,15 +83,10 @@ namespace rectify::app
           const std::string name = "port-" + std::to_string(k + 1) + ".csv";
           write_file_atomic(out / name, outline_csv(ports[k].polygon()));
           panel.series.push_back(series(out / name, "port " + std::to_string(k + 1)));
-          auto j           = ports[k].to_json();
-          j["centroid_m"]  = {ports[k].centroid_m()[0], ports[k].centroid_m()[1]};
-          j["hydraulic_diameter_m"] = 4 * ports[k].area_m2() / ports[k].perimeter_m();
-          port_json.push_back(j);
+          port_json.push_back(ports[k].to_json());
         }
 
-      auto features = g.features();
-      std::sort(features.begin(), features.end(),
-                [](const GeometryFeature &a, const GeometryFeature &b) { return a.size_m < b.size_m; });
+      const auto     features = g.features();
       nlohmann::json feature_json = nlohmann::json::array();
       for (const auto &f : features)
         feature_json.push_back({{"size_m", f.size_m}, {"what", f.what}});

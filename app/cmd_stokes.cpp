@@ -173,7 +173,7 @@ namespace rectify::app
                                          {"output", o.out_dir}});
       const auto &g = mp.geometry;
       const auto &s = mp.settings;
-      const nlohmann::json fingerprint = {
+      nlohmann::json fingerprint = {
         {"openings_m", openings},
         {"geometry", {g.reed_length_m, g.reed_width_m, g.reed_thickness_m, g.port_diameter_m, g.port_center_x_m,
                       g.port_length_m, g.pocket_length_m, g.pocket_width_m, g.pocket_height_m, g.outlet_face}},
@@ -183,6 +183,10 @@ namespace rectify::app
         {"fluid", {fp.fluid.viscosity_Pa_s, fp.fluid.density_kg_per_m3}},
         {"flow", {fp.settings.flow_rate_m3_per_s, fp.settings.outlet_pressure_Pa, fp.settings.solver,
                   fp.settings.tolerance}}};
+      // An outline's description: two outlines may share the numbers above
+      // (their bounding box and first port). The shorthand's fingerprint is kept.
+      if (!g.is_shorthand())
+        fingerprint["outline"] = g.to_json();
       OutputLock lock;
       lock_on_root(lock, out, mpi, true);
       std::size_t n_resumed = 0;

@@ -211,6 +211,28 @@ namespace rectify::geometry
     return out;
   }
 
+  double chord_width(const Polygon &polygon, double x)
+  {
+    double w = 0;
+    for (const auto &[y0, y1] : chord_intervals(polygon, x))
+      w += y1 - y0;
+    return w;
+  }
+
+  std::vector<double> fillet_tangent_lengths(const Polygon &polygon, const std::vector<double> &radii)
+  {
+    const auto          angles = interior_angles(polygon);
+    std::vector<double> tangent(polygon.size(), 0.0);
+    for (std::size_t i = 0; i < polygon.size(); ++i)
+      if (radii[i] > 0)
+        {
+          if (std::abs(angles[i] - M_PI) < 1e-9)
+            throw std::invalid_argument("corner " + std::to_string(i + 1) + " is straight (180 degrees): nothing to round");
+          tangent[i] = radii[i] / std::abs(std::tan(0.5 * angles[i]));
+        }
+    return tangent;
+  }
+
   std::vector<double> interior_angles(const Polygon &polygon)
   {
     const std::size_t   n = polygon.size();
@@ -235,16 +257,7 @@ namespace rectify::geometry
     const std::size_t n = polygon.size();
     if (radii.size() != n)
       throw std::invalid_argument("rounded: one radius per corner");
-    const auto angles = interior_angles(polygon);
-    // Tangent length of each corner's arc along both of its edges.
-    std::vector<double> tangent(n, 0.0);
-    for (std::size_t i = 0; i < n; ++i)
-      if (radii[i] > 0)
-        {
-          if (std::abs(angles[i] - M_PI) < 1e-9)
-            throw std::invalid_argument("corner " + std::to_string(i + 1) + " is straight (180 degrees): nothing to round");
-          tangent[i] = radii[i] / std::abs(std::tan(0.5 * angles[i])); // a reflex corner's too
-        }
+    const auto tangent = fillet_tangent_lengths(polygon, radii);
     const auto length = [&](std::size_t i) {
       const XY &a = polygon[i], &b = polygon[(i + 1) % n];
       return std::hypot(b[0] - a[0], b[1] - a[1]);

@@ -61,6 +61,13 @@ namespace rectify::geometry
   /// polygon, in increasing y (empty if it misses it).
   std::vector<std::array<double, 2>> chord_intervals(const Polygon &polygon, double x);
 
+  /// The polygon's width along the line x = const: the chords' summed length.
+  double chord_width(const Polygon &polygon, double x);
+
+  /// How far along both its edges each corner's fillet reaches:
+  /// radii[i] / |tan(interior angle / 2)| (a reflex corner's too).
+  std::vector<double> fillet_tangent_lengths(const Polygon &polygon, const std::vector<double> &radii);
+
   /// Interior angle at each corner [rad] (of a counter-clockwise polygon).
   std::vector<double> interior_angles(const Polygon &polygon);
 } // namespace rectify::geometry

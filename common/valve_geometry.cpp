@@ -28,6 +28,16 @@ namespace rectify
 
     std::string port_table(std::size_t i) { return "port#" + std::to_string(i + 1); }
 
+    /// How close to x = 0 a corner must be to lie on the pocket's wall: 1e-9
+    /// of the outline's extent.
+    double wall_tolerance(const Polygon &outline)
+    {
+      double extent = 0;
+      for (const XY &p : outline)
+        extent = std::max({extent, std::abs(p[0]), std::abs(p[1])});
+      return 1e-9 * extent;
+    }
+
     /// The seat between two ports: the shortest distance between their
     /// edges, exact for circles; 0 or less if they overlap.
     double gap_between(const Port &a, const Port &b)
@@ -95,6 +105,14 @@ namespace rectify
 
   // ------------------------------------------------------------------ Port
 
+  double Port::land_under(const Polygon &reed) const
+  {
+    return circular ? geometry::distance_to_boundary(reed, center_m) - 0.5 * diameter_m
+                    : geometry::boundary_distance(reed, outline_m);
+  }
+
+  double Port::hydraulic_diameter_m() const { return 4 * area_m2() / perimeter_m(); }
+
   double Port::area_m2() const
   {
     return circular ? 0.25 * M_PI * diameter_m * diameter_m : std::abs(geometry::signed_area(outline_m));
@@ -125,7 +143,11 @@ namespace rectify
 
   nlohmann::json Port::to_json() const
   {
-    nlohmann::json j = {{"length_m", length_m}, {"area_m2", area_m2()}, {"perimeter_m", perimeter_m()}};
+    nlohmann::json j = {{"length_m", length_m},
+                        {"area_m2", area_m2()},
+                        {"perimeter_m", perimeter_m()},
+                        {"centroid_m", {centroid_m()[0], centroid_m()[1]}},
+                        {"hydraulic_diameter_m", hydraulic_diameter_m()}};
     if (circular)
       {
         j["center_m"]   = {center_m[0], center_m[1]};
@@ -202,8 +224,7 @@ namespace rectify
     const Polygon boundary = reed_boundary();
     double        land     = std::numeric_limits<double>::infinity();
     for (const auto &p : ports())
-      land = std::min(land, p.circular ? geometry::distance_to_boundary(boundary, p.center_m) - 0.5 * p.diameter_m
-                                       : geometry::boundary_distance(boundary, p.outline_m));
+      land = std::min(land, p.land_under(boundary));
     return land;
   }
 
@@ -212,15 +233,11 @@ namespace rectify
     std::vector<GeometryFeature> out;
     const Polygon c      = reed_corners();
     const auto    radii  = fillet_radii();
-    const auto    angles = geometry::interior_angles(c);
     const auto    n      = c.size();
-    std::vector<double> tangent(n, 0.0);
+    const auto    tangent = geometry::fillet_tangent_lengths(c, radii);
     for (std::size_t i = 0; i < n; ++i)
       if (radii[i] > 0)
-        {
-          tangent[i] = radii[i] / std::abs(std::tan(0.5 * angles[i]));
-          out.push_back({radii[i], "the fillet radius at corner " + std::to_string(i + 1) + " of the reed"});
-        }
+        out.push_back({radii[i], "the fillet radius at corner " + std::to_string(i + 1) + " of the reed"});
     for (std::size_t i = 0; i < n; ++i)
       {
         const XY    &a = c[i], &b = c[(i + 1) % n];
@@ -239,13 +256,13 @@ namespace rectify
           out.push_back({ps[k].diameter_m, name + "'s diameter"});
         else
           out.push_back({geometry::narrowest_width(ps[k].outline_m), name + "'s narrowest width"});
-        const double land = ps[k].circular ? geometry::distance_to_boundary(boundary, ps[k].center_m) - 0.5 * ps[k].diameter_m
-                                           : geometry::boundary_distance(boundary, ps[k].outline_m);
-        out.push_back({land, "the seat land around " + name});
+        out.push_back({ps[k].land_under(boundary), "the seat land around " + name});
         for (std::size_t j = k + 1; j < ps.size(); ++j)
           out.push_back({gap_between(ps[k], ps[j]),
                          "the seat between ports " + std::to_string(k + 1) + " and " + std::to_string(j + 1)});
       }
+    std::stable_sort(out.begin(), out.end(),
+                     [](const GeometryFeature &a, const GeometryFeature &b) { return a.size_m < b.size_m; });
     return out;
   }
 
@@ -320,10 +337,7 @@ namespace rectify
       if (g.reed_fillet_radii_m.size() != c.size())
         throw InputError(where(t, "reed_fillet_radii_m") + ": " + std::to_string(g.reed_fillet_radii_m.size()) +
                          " radii for an outline of " + std::to_string(c.size()) + " corners");
-      double extent = 0;
-      for (const XY &p : c)
-        extent = std::max({extent, std::abs(p[0]), std::abs(p[1])});
-      const double tol = 1e-9 * extent;
+      const double tol = wall_tolerance(c);
       std::vector<std::size_t> on_wall;
       for (std::size_t i = 0; i < c.size(); ++i)
         {
@@ -395,8 +409,7 @@ namespace rectify
                                  std::to_string((*cross)[1] + 1) + ")");
             }
           const bool   inside = geometry::side_of(boundary, p.centroid_m()) == geometry::Side::inside;
-          const double land   = p.circular ? geometry::distance_to_boundary(boundary, p.center_m) - 0.5 * p.diameter_m
-                                           : geometry::boundary_distance(boundary, p.outline_m);
+          const double land   = p.land_under(boundary);
           bool covered = inside && land > 0;
           if (covered && !p.circular)
             for (const XY &q : p.outline_m)
@@ -540,11 +553,9 @@ namespace rectify
             const double r = f.real(t, "reed_fillet_radius_m", 0.0, Bounds::non_negative());
             g.reed_fillet_radii_m.assign(g.reed_outline_m.size(), r);
             // One radius for all: the clamp line's two corners stay sharp.
-            double extent = 0;
-            for (const XY &p : g.reed_outline_m)
-              extent = std::max({extent, std::abs(p[0]), std::abs(p[1])});
+            const double tol = wall_tolerance(g.reed_outline_m);
             for (std::size_t i = 0; i < g.reed_outline_m.size(); ++i)
-              if (std::abs(g.reed_outline_m[i][0]) <= 1e-9 * extent)
+              if (std::abs(g.reed_outline_m[i][0]) <= tol)
                 g.reed_fillet_radii_m[i] = 0;
           }
         else
@@ -561,11 +572,10 @@ namespace rectify
           }
         else
           {
-            double lo = std::numeric_limits<double>::infinity(), hi = -lo, extent = 0;
+            double       lo = std::numeric_limits<double>::infinity(), hi = -lo;
+            const double tol = wall_tolerance(g.reed_outline_m);
             for (const XY &p : g.reed_outline_m)
-              extent = std::max({extent, std::abs(p[0]), std::abs(p[1])});
-            for (const XY &p : g.reed_outline_m)
-              if (std::abs(p[0]) <= 1e-9 * extent)
+              if (std::abs(p[0]) <= tol)
                 lo = std::min(lo, p[1]), hi = std::max(hi, p[1]);
             g.clamp_y_m = {lo, hi};
           }

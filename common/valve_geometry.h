@@ -48,6 +48,11 @@ namespace rectify
     bool         contains(const geometry::XY &p) const;
     /// Distance from p to the port's edge.
     double distance_to_edge(const geometry::XY &p) const;
+    /// The seat land the reed `reed` (its boundary) leaves around the port:
+    /// the least distance from the port's edge to the reed's (negative if it pokes out).
+    double land_under(const geometry::Polygon &reed) const;
+    /// 4 area / perimeter.
+    double hydraulic_diameter_m() const;
     nlohmann::json to_json() const;
   };
 
@@ -107,8 +112,9 @@ namespace rectify
     /// The narrowest seat land: over every port, the smallest distance from
     /// its edge to the reed's outline.
     double seat_land_m() const;
-    /// The lengths a mesh must resolve: straight edges left between fillets,
-    /// fillet radii, ports' sizes and edges, seat lands, gaps between ports.
+    /// The lengths a mesh must resolve, smallest first: straight edges left
+    /// between fillets, fillet radii, narrowest widths, ports' sizes, seat
+    /// lands, gaps between ports.
     std::vector<GeometryFeature> features() const;
 
     /// Area of the outlet face [m^2].

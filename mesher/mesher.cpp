@@ -152,10 +152,7 @@ namespace rectify::mesher
           breaks.push_back(std::clamp(q[0], 0.0, lay.L));
         std::sort(breaks.begin(), breaks.end());
         const auto chord = [&](double x) {
-          double w = 0;
-          for (const auto &[y0, y1] : geometry::chord_intervals(lay.outline, std::clamp(x, 1e-12 * lay.L, (1 - 1e-12) * lay.L)))
-            w += y1 - y0;
-          return w;
+          return geometry::chord_width(lay.outline, std::clamp(x, 1e-12 * lay.L, (1 - 1e-12) * lay.L));
         };
         for (std::size_t k = 1; k < breaks.size(); ++k)
           {

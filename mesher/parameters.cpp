@@ -94,9 +94,7 @@ namespace rectify::mesher
         const auto   ports   = g.ports();
         const double L = g.reed_length_m, h = L / 20000, gp = 0.5 / std::sqrt(3.0);
         const auto   seat = [&](double x) {
-          double w = 0;
-          for (const auto &[y0, y1] : geometry::chord_intervals(outline, x))
-            w += y1 - y0;
+          double w = geometry::chord_width(outline, x);
           for (const auto &port : ports)
             if (port.circular)
               {
@@ -104,8 +102,7 @@ namespace rectify::mesher
                 w -= d * d < r * r ? 2 * std::sqrt(r * r - d * d) : 0.0;
               }
             else
-              for (const auto &[y0, y1] : geometry::chord_intervals(port.outline_m, x))
-                w -= y1 - y0;
+              w -= geometry::chord_width(port.outline_m, x);
           return w;
         };
         double area = 0;

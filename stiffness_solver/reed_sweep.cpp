@@ -18,7 +18,7 @@ namespace rectify::stiffness
     for (double t : thicknesses)
       if (!(t > 0) || t >= 0.5 * std::min(base.geometry.reed_length_m, base.geometry.reed_width_m))
         throw InputError("thickness " + format_number(t) + " m: a reed must be a thin plate");
-    const nlohmann::json fingerprint = {{"thickness_m", thicknesses},
+    nlohmann::json fingerprint = {{"thickness_m", thicknesses},
                                         {"reed_length_m", base.geometry.reed_length_m},
                                         {"reed_width_m", base.geometry.reed_width_m},
                                         {"port_diameter_m", base.geometry.port_diameter_m},
@@ -33,6 +33,10 @@ namespace rectify::stiffness
                                           base.settings.cells_through_thickness, base.settings.fe_degree}},
                                         {"n_modes", base.settings.n_modes},
                                         {"added_mass_factor", base.settings.added_mass_factor}};
+    // An outline's description: two outlines may share the numbers above
+    // (their bounding box and first port). The shorthand's fingerprint is kept.
+    if (!base.geometry.is_shorthand())
+      fingerprint["outline"] = base.geometry.to_json();
     const auto &columns = maps::ReedMap::columns();
     std::string header;
     for (const auto &c : columns)

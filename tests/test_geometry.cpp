@@ -152,6 +152,7 @@ TEST(Geometry, FilletsCirclesAndWidthsAgainstExactValues)
 
 TEST(Geometry, EveryExampleIsValidAndDrawn)
 {
+  nlohmann::json rectangle_summary;
   for (const char *name : {"rectangle-outline", "rounded-tip", "tapered", "necked", "two-ports", "slotted-port"})
     {
       SCOPED_TRACE(name);
@@ -165,6 +166,8 @@ TEST(Geometry, EveryExampleIsValidAndDrawn)
       EXPECT_EQ(check.exit_code, 0) << check.output;
       std::ifstream   in(out / "summary.json");
       nlohmann::json  s = nlohmann::json::parse(in);
+      if (std::string(name) == "rectangle-outline")
+        rectangle_summary = s;
       const ValveGeometry g = ValveGeometry::from_case(CaseFile::load(cases_dir() / (std::string(name) + ".toml")));
       EXPECT_EQ(s["ports"].size(), g.ports().size());
       EXPECT_DOUBLE_EQ(s["reed_area_m2"].get<double>(), g.reed_area_m2());
@@ -175,6 +178,27 @@ TEST(Geometry, EveryExampleIsValidAndDrawn)
           EXPECT_TRUE(std::filesystem::exists(out / "geometry.png"));
         }
     }
+  // The summary's numbers for the rectangle drawn as an outline and the slot.
+  {
+    const nlohmann::json &s = rectangle_summary;
+    EXPECT_NEAR(s["reed_perimeter_m"].get<double>(), 2 * (6.1e-3 + 5.08e-3), 1e-15);
+    EXPECT_NEAR(s["reed_centroid_m"][0].get<double>(), 3.05e-3, 1e-15);
+    EXPECT_NEAR(s["reed_centroid_m"][1].get<double>(), 0.0, 1e-15);
+    EXPECT_NEAR(s["ports"][0]["hydraulic_diameter_m"].get<double>(), 3.175e-3, 1e-15); // a circle's is its diameter
+    double previous = 0;
+    for (const auto &f : s["features_smallest_first"])
+      {
+        EXPECT_GE(f["size_m"].get<double>(), previous);
+        previous = f["size_m"].get<double>();
+      }
+    EXPECT_NEAR(s["features_smallest_first"][0]["size_m"].get<double>(), 2.54e-3 - 3.175e-3 / 2, 1e-15); // the land
+  }
+  {
+    // the slot is symmetric about (3.3, 0) mm: its centroid
+    const auto slot = ValveGeometry::from_case(CaseFile::load(cases_dir() / "slotted-port.toml")).ports()[0];
+    EXPECT_NEAR(slot.centroid_m()[0], 3.3e-3, 1e-12);
+    EXPECT_NEAR(slot.centroid_m()[1], 0.0, 1e-12);
+  }
   const auto two = ValveGeometry::from_case(CaseFile::load(cases_dir() / "two-ports.toml"));
   EXPECT_EQ(two.ports().size(), 2u);
   EXPECT_FALSE(two.has_one_round_port());
@@ -255,4 +279,27 @@ TEST(Geometry, ABadGeometryWritesNothing)
   EXPECT_NE(run.output.find("not simple"), std::string::npos) << run.output;
   EXPECT_FALSE(std::filesystem::exists(out / "summary.json"));
   EXPECT_FALSE(std::filesystem::exists(out / "reed.csv"));
+}
+
+// A resumed map of another outline is refused: two outlines with the same
+// bounding box and first port (a reed tapering towards its tip, and the same
+// taper reversed) are different reeds, and map-stiffness's checkpoint says so.
+TEST(Geometry, AMapOfAnotherOutlineIsNotResumed)
+{
+  const auto dir = test_support::scratch("geometry-resume");
+  const auto write = [&](const std::string &name, const std::string &outline) {
+    std::ofstream f(dir / name);
+    f << "[geometry]\nreed_outline_m = " << outline << "\n[[port]]\ncenter_m = [3.3e-3, 0.0]\ndiameter_m = 3.175e-3\n"
+      << "[valves]\nresistance_map = \"" << (std::filesystem::path(RECTIFY_SOURCE_DIR) / "cases/thesis-resistance.csv").string()
+      << "\"\n[stiffness]\ncells_along_length = 12\ncells_across_width = 10\nn_modes = 1\n";
+  };
+  write("narrowing.toml", "[[0.0, -2.54e-3], [6.1e-3, -1.75e-3], [6.1e-3, 1.75e-3], [0.0, 2.54e-3]]");
+  write("widening.toml", "[[0.0, -1.75e-3], [6.1e-3, -2.54e-3], [6.1e-3, 2.54e-3], [0.0, 1.75e-3]]");
+  const auto out   = dir / "map";
+  const auto first = test_support::rectify_cli("map-stiffness --case " + (dir / "narrowing.toml").string() +
+                                               " --thickness 0.1e-3:0.12e-3:2 --out " + out.string());
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+  const auto second = test_support::rectify_cli("map-stiffness --case " + (dir / "widening.toml").string() +
+                                                " --thickness 0.1e-3:0.12e-3:2 --out " + out.string());
+  EXPECT_NE(second.exit_code, 0) << second.output;
 }
