@@ -109,7 +109,6 @@ namespace rectify::app
         {"seat_land_m", g.seat_land_m()},
         {"features_smallest_first", feature_json},
         {"mesh_size_reed_m", mesh.settings.size_reed_m},
-        {"flow_solver_takes_it", g.has_one_round_port()},
         {"plot", plotted ? "geometry.png, geometry.svg" : "not drawn (gnuplot missing or failed; geometry.gp kept)"}};
       write_json(out / "summary.json", summary);
       std::printf("%s: valid geometry; reed %.4g mm^2 (%zu corners), %zu port(s) %.4g mm^2, narrowest seat land "

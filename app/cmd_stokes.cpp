@@ -62,7 +62,6 @@ namespace rectify::app
     {
       const CaseFile file    = load_case(o.case_path);
       const auto     mp      = mesher::MeshParameters::from_case(file);
-      stokes::require_one_round_port(mp.geometry);
       auto           fp      = stokes::FlowParameters::from_case(file);
       const double   opening = mesher::parse_length(o.opening, "--opening");
       if (!std::isnan(o.flow_rate))
@@ -116,7 +115,21 @@ namespace rectify::app
         summary["inertia_shift_rel"] = shift;
       if (loading)
         summary["reed_loading"] = stokes::to_json(r.loading);
+      nlohmann::json ports = nlohmann::json::array();
+      for (const auto &p : r.ports)
+        ports.push_back({{"centre_m", p.centre_m},
+                         {"area_m2", p.area_m2},
+                         {"inflow", p.round ? "parabola (round)" : "developed duct profile"},
+                         {"flow_m3_per_s", p.flow_m3_per_s},
+                         {"flow_share", p.flow_m3_per_s / Q},
+                         {"pressure_drop_Pa", p.pressure_drop_Pa}});
+      summary["ports"] = ports;
       write_json(out / "summary.json", summary);
+      if (r.ports.size() > 1)
+        for (std::size_t k = 0; k < r.ports.size(); ++k)
+          std::printf("port %zu at (%.4g, %.4g) mm: %.4f of the flow, pressure drop %.6g Pa\n", k + 1,
+                      1e3 * r.ports[k].centre_m[0], 1e3 * r.ports[k].centre_m[1], r.ports[k].flow_m3_per_s / Q,
+                      r.ports[k].pressure_drop_Pa);
       if (loading)
         std::printf("reed's fluid loading: squeeze-film damping %.6g N s/m (port shut), %.6g N s/m (fixed dp); "
                     "flow drawn per unit tip velocity %.6g m^2; added mass %.6g kg; asymmetry %.1e; %.1f s\n",
@@ -160,7 +173,6 @@ namespace rectify::app
     {
       const CaseFile file     = load_case(o.case_path);
       const auto     mp       = mesher::MeshParameters::from_case(file);
-      stokes::require_one_round_port(mp.geometry);
       const auto     fp       = stokes::FlowParameters::from_case(file);
       const auto     openings = log_range(o.openings);
       stokes::MpiSession mpi;

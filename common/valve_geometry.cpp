@@ -213,12 +213,6 @@ namespace rectify
     return a;
   }
 
-  bool ValveGeometry::has_one_round_port() const
-  {
-    const auto ps = ports();
-    return ps.size() == 1 && ps[0].circular;
-  }
-
   double ValveGeometry::seat_land_m() const
   {
     const Polygon boundary = reed_boundary();

@@ -106,8 +106,6 @@ namespace rectify
     double                reed_area_m2() const;
     /// Total port area.
     double ports_area_m2() const;
-    /// One round port: what the flow solver's inflow takes so far.
-    bool has_one_round_port() const;
 
     /// The narrowest seat land: over every port, the smallest distance from
     /// its edge to the reed's outline.

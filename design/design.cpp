@@ -432,7 +432,6 @@ namespace rectify::design
   {
     const auto start = Clock::now();
     const bool root  = mpi.rank() == 0;
-    stokes::require_one_round_port(ValveGeometry::from_case(file)); // before the reed's solve
     const auto fp    = stokes::FlowParameters::from_case(file);
     const auto ss    = stokes::SweepSettings::from_case(file);
     const auto deps  = map_set_provenance(file);

@@ -134,22 +134,9 @@ namespace rectify::stokes
                         "modal force on the reed (its shape normalised to the tip); docs/fluid-loading.md"}};
   }
 
-  void require_one_round_port(const ValveGeometry &g)
-  {
-    if (g.has_one_round_port())
-      return;
-    const auto ports = g.ports();
-    throw InputError("the flow solver's inflow is one round port's Poiseuille profile; this valve has " +
-                     std::to_string(ports.size()) + " port(s)" +
-                     (ports.size() == 1 ? std::string(", not round") : std::string()) +
-                     ": several ports or a port that is not round are not supported by the flow solver yet "
-                     "(docs/geometry.md; `rectify mesh` and the thin-gap estimate take them)");
-  }
-
   OpeningPoint solve_opening(const mesher::MeshParameters &mp, const FlowParameters &fp, double x,
                              const MpiSession &mpi)
   {
-    require_one_round_port(mp.geometry);
     const auto         valve   = mesher::mesh_valve(mp, x, false);
     const ReedMotion   motion  = reed_motion(mp);
     const bool         loading = fp.settings.reed_loading == "solve";

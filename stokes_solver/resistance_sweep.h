@@ -89,11 +89,6 @@ namespace rectify::stokes
   /// FluidLoading as JSON (the map's entries and their checks).
   nlohmann::json to_json(const FluidLoading &loading);
 
-  /// Throws InputError unless the flow solver takes the valve: its inflow
-  /// is one round port's Poiseuille profile, so several ports or a port
-  /// that is not round are refused (docs/geometry.md).
-  void require_one_round_port(const ValveGeometry &geometry);
-
   /// Meshes and solves one opening (with the fluid loading if [flow]
   /// reed_loading = "solve"); every process returns the root's numbers.
   OpeningPoint solve_opening(const mesher::MeshParameters &mesh, const FlowParameters &flow, double opening_m,

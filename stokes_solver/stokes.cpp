@@ -43,6 +43,8 @@
 #include <deal.II/numerics/vector_tools.h>
 
 
+#include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <numbers>
@@ -56,6 +58,7 @@
 
 #include "mesher/to_dealii.h"
 #include "stokes_solver/block_solver.h"
+#include "stokes_solver/duct_profile.h"
 #include "stokes_solver/potential_flow.h"
 
 namespace rectify::stokes
@@ -170,7 +173,7 @@ namespace rectify::stokes
       std::map<std::pair<double, double>, std::pair<double, double>> column_; // (x, y) -> (z min, z max)
     };
 
-    /// The inlet face's centre, inward normal and circumradius, from its faces.
+    /// An inlet patch's centre, inward normal and circumradius, from its faces.
     struct InletFrame
     {
       Point<3>     centre;
@@ -178,54 +181,182 @@ namespace rectify::stokes
       double       radius = 0;
     };
 
-    InletFrame inlet_frame(const mesher::TetMesh &m)
+    InletFrame inlet_frame(const mesher::TetMesh &m, const std::vector<std::size_t> &faces)
     {
       InletFrame   f;
       double       area = 0;
       Tensor<1, 3> normal;
-      for (const auto &b : m.boundary)
-        if (b.id == mesher::inlet)
-          {
-            const auto  &p0 = m.vertices[b.vertices[0]], &p1 = m.vertices[b.vertices[1]],
-                       &p2 = m.vertices[b.vertices[2]];
-            const Point<3> a(p0[0], p0[1], p0[2]), b1(p1[0], p1[1], p1[2]), c(p2[0], p2[1], p2[2]);
-            const Tensor<1, 3> n = 0.5 * cross_product_3d(b1 - a, c - a); // outward, |n| = area
-            area += n.norm();
-            normal += n;
-            f.centre += n.norm() * (a + b1 + c) / 3.0;
-          }
-      if (area == 0)
-        throw InputError("the mesh has no inlet (no boundary face with id 1)");
+      for (const auto i : faces)
+        {
+          const auto &b = m.boundary[i];
+          const auto &p0 = m.vertices[b.vertices[0]], &p1 = m.vertices[b.vertices[1]], &p2 = m.vertices[b.vertices[2]];
+          const Point<3> a(p0[0], p0[1], p0[2]), b1(p1[0], p1[1], p1[2]), c(p2[0], p2[1], p2[2]);
+          const Tensor<1, 3> n = 0.5 * cross_product_3d(b1 - a, c - a); // outward, |n| = area
+          area += n.norm();
+          normal += n;
+          f.centre += n.norm() * (a + b1 + c) / 3.0;
+        }
       f.centre /= area;
       f.inward = -normal / normal.norm();
-      for (const auto &b : m.boundary)
-        if (b.id == mesher::inlet)
-          for (auto v : b.vertices)
-            {
-              const Point<3> p(m.vertices[v][0], m.vertices[v][1], m.vertices[v][2]);
-              f.radius = std::max(f.radius, p.distance(f.centre));
-            }
+      for (const auto i : faces)
+        for (auto v : m.boundary[i].vertices)
+          {
+            const Point<3> p(m.vertices[v][0], m.vertices[v][1], m.vertices[v][2]);
+            f.radius = std::max(f.radius, p.distance(f.centre));
+          }
       return f;
     }
 
-    /// Parabolic inflow 1 - rho^2 / R^2 along the inward normal (velocity components only).
+    /// One port's inlet: a connected patch of the mesh's inlet faces, and
+    /// its developed inflow: a round port's parabola (Hagen-Poiseuille), any
+    /// other section's duct profile (DuctProfile) on the patch's own triangles.
+    struct InletPort
+    {
+      InletFrame                         frame;
+      std::array<Tensor<1, 3>, 2>        plane; ///< unit vectors in the patch's plane
+      double                             area = 0;
+      bool                               round = false;
+      std::shared_ptr<const DuctProfile> duct; ///< not round
+    };
+
+    /// The inlet's patches, in the order of their first face. A patch is
+    /// round if it has at least 12 rim vertices and all lie on one circle
+    /// within 1e-6 of its radius (least squares); the mesher's round ports
+    /// do (their polygons' vertices are on the circle).
+    std::vector<InletPort> inlet_ports(const mesher::TetMesh &m)
+    {
+      // Union-find of the inlet faces over their shared vertices.
+      std::vector<std::size_t>                  faces;
+      std::map<std::uint32_t, std::size_t>      first_face_of_vertex;
+      std::vector<std::size_t>                  parent;
+      const std::function<std::size_t(std::size_t)> root = [&](std::size_t i) {
+        while (parent[i] != i)
+          i = parent[i] = parent[parent[i]];
+        return i;
+      };
+      for (std::size_t i = 0; i < m.boundary.size(); ++i)
+        if (m.boundary[i].id == mesher::inlet)
+          {
+            const std::size_t k = faces.size();
+            faces.push_back(i);
+            parent.push_back(k);
+            for (const auto v : m.boundary[i].vertices)
+              {
+                const auto [it, added] = first_face_of_vertex.try_emplace(v, k);
+                if (!added)
+                  parent[root(k)] = root(it->second);
+              }
+          }
+      if (faces.empty())
+        throw InputError("the mesh has no inlet (no boundary face with id 1)");
+      std::vector<std::vector<std::size_t>> patches;
+      std::map<std::size_t, std::size_t>    patch_of_root;
+      for (std::size_t k = 0; k < faces.size(); ++k)
+        {
+          const auto [it, added] = patch_of_root.try_emplace(root(k), patches.size());
+          if (added)
+            patches.emplace_back();
+          patches[it->second].push_back(faces[k]);
+        }
+
+      std::vector<InletPort> ports;
+      for (const auto &patch : patches)
+        {
+          InletPort port;
+          port.frame = inlet_frame(m, patch);
+          const Tensor<1, 3> &n = port.frame.inward;
+          Tensor<1, 3>        e1;
+          e1[std::abs(n[0]) < 0.9 ? 0 : 1] = 1;
+          e1 -= (e1 * n) * n;
+          e1 /= e1.norm();
+          port.plane = {e1, cross_product_3d(n, e1)};
+          // The patch's own triangles in the plane, and its rim.
+          std::map<std::uint32_t, std::size_t>                    local;
+          std::vector<DuctProfile::Point2>                        points;
+          std::vector<std::array<std::size_t, 3>>                 triangles;
+          std::map<std::pair<std::size_t, std::size_t>, unsigned> edges;
+          for (const auto i : patch)
+            {
+              std::array<std::size_t, 3> t{};
+              for (int j = 0; j < 3; ++j)
+                {
+                  const auto v          = m.boundary[i].vertices[j];
+                  const auto [it, added] = local.try_emplace(v, points.size());
+                  if (added)
+                    {
+                      const Tensor<1, 3> d = Point<3>(m.vertices[v][0], m.vertices[v][1], m.vertices[v][2]) -
+                                             port.frame.centre;
+                      points.push_back({d * port.plane[0], d * port.plane[1]});
+                    }
+                  t[j] = it->second;
+                }
+              for (int j = 0; j < 3; ++j)
+                ++edges[std::minmax(t[j], t[(j + 1) % 3])];
+              triangles.push_back(t);
+              const auto &a = points[t[0]], &b = points[t[1]], &c = points[t[2]];
+              port.area += 0.5 * std::abs((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]));
+            }
+          std::vector<std::size_t> rim;
+          for (const auto &[e, count] : edges)
+            if (count == 1)
+              rim.push_back(e.first), rim.push_back(e.second);
+          std::sort(rim.begin(), rim.end());
+          rim.erase(std::unique(rim.begin(), rim.end()), rim.end());
+          if (rim.size() >= 12)
+            {
+              // Least squares: u^2 + v^2 + D u + E v + F = 0 (Kasa's fit).
+              FullMatrix<double> A(3, 3);
+              Vector<double>     rhs(3), x(3);
+              for (const auto r : rim)
+                {
+                  const double u = points[r][0], v = points[r][1], row[3] = {u, v, 1.0};
+                  for (int i = 0; i < 3; ++i)
+                    {
+                      rhs(i) -= (u * u + v * v) * row[i];
+                      for (int j = 0; j < 3; ++j)
+                        A(i, j) += row[i] * row[j];
+                    }
+                }
+              A.gauss_jordan();
+              A.vmult(x, rhs);
+              const double uc = -x(0) / 2, vc = -x(1) / 2, radius = std::sqrt(uc * uc + vc * vc - x(2));
+              double       worst = 0;
+              for (const auto r : rim)
+                worst = std::max(worst, std::abs(std::hypot(points[r][0] - uc, points[r][1] - vc) - radius));
+              port.round = std::isfinite(radius) && worst <= 1e-6 * radius;
+            }
+          if (!port.round)
+            port.duct = std::make_shared<const DuctProfile>(std::move(points), triangles);
+          ports.push_back(std::move(port));
+        }
+      return ports;
+    }
+
+    /// A port's developed inflow along its inward normal, zero off its patch
+    /// (velocity components only): a round port's 1 - rho^2 / R^2, any
+    /// other's duct profile. Either is scaled to carry the flow wanted.
     class InletProfile : public Function<3>
     {
     public:
-      InletProfile(const InletFrame &frame, double amplitude) : Function<3>(4), f_(frame), a_(amplitude) {}
+      explicit InletProfile(const InletPort &port) : Function<3>(4), port_(port) {}
       double value(const Point<3> &p, unsigned c) const override
       {
         if (c > 2)
           return 0;
-        Tensor<1, 3> d = p - f_.centre;
-        d -= (d * f_.inward) * f_.inward;
-        const double s = std::max(0.0, 1.0 - d.norm_square() / (f_.radius * f_.radius));
-        return a_ * s * f_.inward[c];
+        const InletFrame &f = port_.frame;
+        Tensor<1, 3>      d = p - f.centre;
+        const double      off = d * f.inward;
+        if (std::abs(off) > 1e-6 * f.radius)
+          return 0; // another port's plane
+        if (!port_.round)
+          return port_.duct->value(d * port_.plane[0], d * port_.plane[1]) * f.inward[c];
+        d -= off * f.inward;
+        const double s = std::max(0.0, 1.0 - d.norm_square() / (f.radius * f.radius));
+        return s * f.inward[c];
       }
 
     private:
-      InletFrame f_;
-      double     a_;
+      const InletPort &port_;
     };
 
     /// The reed's surface velocity per unit tip velocity, w(x, y) e_z.
@@ -273,12 +404,16 @@ namespace rectify::stokes
       void          make_grid();
       void          setup_system();
       void          assemble_system(const PETScWrappers::MPI::Vector *state, bool with_gap_laplace);
-      void          solve(bool with_motion);
+      void          solve(bool with_motion, bool with_exchange);
       PETScWrappers::MPI::Vector physical(const PETScWrappers::MPI::Vector &scaled) const;
       void          make_physical_solution();
       FlowIntegrals evaluate(const PETScWrappers::MPI::Vector &physical, double p_ref) const;
       double        tested_residual(const PETScWrappers::MPI::Vector &physical, double p_ref,
                                     const PETScWrappers::MPI::Vector &lift) const;
+      void          split_flow();
+      void          make_constraints(AffineConstraints<double> &c, const std::vector<double> &port_weights,
+                                     bool reed_moves) const;
+      double        port_residual(const PETScWrappers::MPI::Vector &physical, double p_ref, std::size_t port) const;
       void          compute_loading();
       void          store(const FlowIntegrals &integrals);
       void          newton_iteration();
@@ -294,7 +429,7 @@ namespace rectify::stokes
       const MPI_Comm         comm_;
       const unsigned         n_processes_;
       const bool             root_;
-      const InletFrame       inlet_;
+      const std::vector<InletPort> ports_;
 
       Triangulation<3>                             serial_triangulation_;
       parallel::fullydistributed::Triangulation<3> distributed_triangulation_;
@@ -318,6 +453,18 @@ namespace rectify::stokes
       /// Each solve's boundary data alone (zero at every other DoF), ghosted:
       /// the unit-flow inlet profile and the reed's unit-tip-velocity motion.
       PETScWrappers::MPI::Vector inlet_lift_, reed_lift_;
+      /// The constrained DoFs: no slip (walls and reed; the reed's motion
+      /// where it is not also a fixed wall's DoF), and the inlet's.
+      std::vector<types::global_dof_index>      wall_dofs_;
+      std::map<types::global_dof_index, double> reed_values_;
+      /// Each port's profile on every inlet DoF (zero on the other ports'
+      /// faces), scaled to unit flux; ghosted copies as lifts.
+      std::vector<std::map<types::global_dof_index, double>> port_values_;
+      std::vector<PETScWrappers::MPI::Vector>                port_lift_;
+      /// Several ports: solve k moves unit flux from port 0 to port k (outlet
+      /// traction zero, reed still), on the same matrix.
+      std::vector<AffineConstraints<double>>  exchange_constraints_;
+      std::vector<PETScWrappers::MPI::Vector> exchange_rhs_, exchange_solution_;
       /// MUMPS keeps its factors between the two solves of one matrix.
       SolverControl                                     mumps_control_{1, 0};
       std::unique_ptr<PETScWrappers::SparseDirectMUMPS> mumps_;
@@ -335,6 +482,7 @@ namespace rectify::stokes
       PETScWrappers::MPI::Vector       physical_solution_; ///< p times sigma, with ghost values
       PETScWrappers::MPI::Vector       state_;             ///< Newton's linearisation point, ghosted
 
+      std::vector<double> port_flow_; ///< each port's share of Q (split_flow)
       StokesResult      result_;
       Clock::time_point start_, stage_;
     };
@@ -351,7 +499,7 @@ namespace rectify::stokes
       , comm_(comm)
       , n_processes_(Utilities::MPI::n_mpi_processes(comm_))
       , root_(Utilities::MPI::this_mpi_process(comm_) == 0)
-      , inlet_(inlet_frame(mesh))
+      , ports_(inlet_ports(mesh))
       , distributed_triangulation_(comm_)
       , fe_(FE_SimplexP<3>(2), 3, FE_SimplexP<3>(1), 1)
       , mapping_(FE_SimplexP<3>(1))
@@ -404,98 +552,109 @@ namespace rectify::stokes
       result_.n_pressure_dofs = Utilities::MPI::sum(owned_pressure_.n_elements(), comm_);
       result_.n_velocity_dofs = result_.n_dofs - result_.n_pressure_dofs;
 
-      // Boundary values: no slip on walls and reed first, then the inlet
-      // profile on what is left (its rim stays at zero), scaled to carry Q.
-      std::map<types::global_dof_index, double>         wall_values, inlet_values, fixed_wall_values, reed_values;
+      // Boundary values: no slip on walls and reed first, then each port's
+      // profile on what is left (its rim stays at zero), scaled to unit flux.
+      std::map<types::global_dof_index, double>         wall_values;
       std::map<types::boundary_id, const Function<3> *> wall_functions;
       const Functions::ZeroFunction<3>                  zero(4);
       wall_functions[mesher::walls] = &zero;
       wall_functions[mesher::reed]  = &zero;
       VectorTools::interpolate_boundary_values(mapping_, dof_handler_, wall_functions, wall_values,
                                                fe_.component_mask(velocities_));
+      for (const auto &[i, v] : wall_values)
+        wall_dofs_.push_back(i);
       if (motion_ != nullptr)
         {
           // The reed's motion where it is not also a fixed wall's DoF.
+          std::map<types::global_dof_index, double> fixed_wall_values;
           VectorTools::interpolate_boundary_values(mapping_, dof_handler_, mesher::walls, zero, fixed_wall_values,
                                                    fe_.component_mask(velocities_));
           VectorTools::interpolate_boundary_values(mapping_, dof_handler_, mesher::reed, ReedVelocity(motion_->shape),
-                                                   reed_values, fe_.component_mask(velocities_));
+                                                   reed_values_, fe_.component_mask(velocities_));
           for (const auto &[i, v] : fixed_wall_values)
-            reed_values.erase(i);
+            reed_values_.erase(i);
         }
-      const InletProfile unit(inlet_, 1.0);
-      VectorTools::interpolate_boundary_values(mapping_, dof_handler_, mesher::inlet, unit, inlet_values,
-                                               fe_.component_mask(velocities_));
-      for (const auto &[i, v] : wall_values)
-        inlet_values.erase(i);
-
-      // The unit profile's discrete flux, integral of -u.n over the inlet.
-      FEFaceValues<3> face_values(mapping_, fe_, face_quadrature_,
-                                  update_values | update_normal_vectors | update_JxW_values);
-      std::vector<types::global_dof_index> dofs(fe_.n_dofs_per_cell());
-      double                               unit_flux = 0;
-      for (const auto &cell : dof_handler_.active_cell_iterators())
-        if (cell->is_locally_owned())
-          for (const auto f : cell->face_indices())
-            if (cell->face(f)->at_boundary() && cell->face(f)->boundary_id() == mesher::inlet)
-              {
-                face_values.reinit(cell, f);
-                cell->get_dof_indices(dofs);
-                for (unsigned q = 0; q < face_values.n_quadrature_points; ++q)
-                  {
-                    Tensor<1, 3> u;
-                    for (unsigned i = 0; i < dofs.size(); ++i)
-                      if (const auto it = inlet_values.find(dofs[i]); it != inlet_values.end())
-                        u += it->second * face_values[velocities_].value(i, q);
-                    unit_flux -= u * face_values.normal_vector(q) * face_values.JxW(q);
-                  }
-              }
-      unit_flux = Utilities::MPI::sum(unit_flux, comm_);
-      if (!(unit_flux > 0))
-        throw std::runtime_error("the inlet profile carries no flow (inlet too coarse?)");
-      const double amplitude = Q_ / unit_flux;
-
-      constraints_.reinit(relevant_);
-      for (const auto &[i, v] : wall_values)
+      // A profile's discrete flux, integral of -u.n over the inlet.
+      const auto flux_of = [&](const std::map<types::global_dof_index, double> &values) {
+        FEFaceValues<3> face_values(mapping_, fe_, face_quadrature_,
+                                    update_values | update_normal_vectors | update_JxW_values);
+        std::vector<types::global_dof_index> dofs(fe_.n_dofs_per_cell());
+        double                               flux = 0;
+        for (const auto &cell : dof_handler_.active_cell_iterators())
+          if (cell->is_locally_owned())
+            for (const auto f : cell->face_indices())
+              if (cell->face(f)->at_boundary() && cell->face(f)->boundary_id() == mesher::inlet)
+                {
+                  face_values.reinit(cell, f);
+                  cell->get_dof_indices(dofs);
+                  for (unsigned q = 0; q < face_values.n_quadrature_points; ++q)
+                    {
+                      Tensor<1, 3> u;
+                      for (unsigned i = 0; i < dofs.size(); ++i)
+                        if (const auto it = values.find(dofs[i]); it != values.end())
+                          u += it->second * face_values[velocities_].value(i, q);
+                      flux -= u * face_values.normal_vector(q) * face_values.JxW(q);
+                    }
+                }
+        return Utilities::MPI::sum(flux, comm_);
+      };
+      for (const auto &port : ports_)
         {
-          constraints_.add_line(i);
-          constraints_.set_inhomogeneity(i, 0.0);
+          std::map<types::global_dof_index, double> values;
+          VectorTools::interpolate_boundary_values(mapping_, dof_handler_, mesher::inlet, InletProfile(port), values,
+                                                   fe_.component_mask(velocities_));
+          for (const auto &[i, v] : wall_values)
+            values.erase(i);
+          const double flux = flux_of(values);
+          if (!(flux > 0))
+            {
+              const auto &c = port.frame.centre;
+              throw std::runtime_error("the inflow profile of the port at (" + format_number(c[0]) + ", " +
+                                       format_number(c[1]) + ", " + format_number(c[2]) +
+                                       ") m carries no flow (its inlet too coarse?)");
+            }
+          for (auto &[i, v] : values)
+            v /= flux;
+          port_values_.push_back(std::move(values));
         }
-      for (const auto &[i, v] : inlet_values)
+      for (const auto &values : port_values_)
         {
-          constraints_.add_line(i);
-          constraints_.set_inhomogeneity(i, amplitude * v);
+          PETScWrappers::MPI::Vector owned(owned_, comm_);
+          for (const auto &[i, v] : values)
+            if (owned_.is_element(i))
+              owned(i) = v;
+          owned.compress(VectorOperation::insert);
+          port_lift_.emplace_back(owned_, relevant_, comm_);
+          port_lift_.back() = owned;
         }
-      constraints_.close();
+      inlet_lift_.reinit(owned_, relevant_, comm_);
+      inlet_lift_ = port_lift_[0];
+
+      // All the flow through port 0 at first: several ports share it once
+      // each exchange solve is known (split_flow).
+      std::vector<double> weights(ports_.size(), 0.0);
+      weights[0] = Q_;
+      make_constraints(constraints_, weights, false);
+      for (std::size_t k = 1; k < ports_.size(); ++k)
+        {
+          std::vector<double> exchange(ports_.size(), 0.0);
+          exchange[0] = -1, exchange[k] = 1;
+          exchange_constraints_.emplace_back();
+          make_constraints(exchange_constraints_.back(), exchange, false);
+          exchange_rhs_.emplace_back(owned_, comm_);
+          exchange_solution_.emplace_back(owned_, comm_);
+        }
       if (motion_ != nullptr)
         {
           // The same DoFs constrained (walls, reed, inlet), so the same matrix.
-          motion_constraints_.reinit(relevant_);
-          for (const auto &[i, v] : wall_values)
-            {
-              motion_constraints_.add_line(i);
-              const auto it = reed_values.find(i);
-              motion_constraints_.set_inhomogeneity(i, it != reed_values.end() ? it->second : 0.0);
-            }
-          for (const auto &[i, v] : inlet_values)
-            {
-              motion_constraints_.add_line(i);
-              motion_constraints_.set_inhomogeneity(i, 0.0);
-            }
-          motion_constraints_.close();
-          PETScWrappers::MPI::Vector inlet(owned_, comm_), reed(owned_, comm_);
-          for (const auto &[i, v] : inlet_values)
-            if (owned_.is_element(i))
-              inlet(i) = v / unit_flux; // unit flow
-          for (const auto &[i, v] : reed_values)
+          make_constraints(motion_constraints_, std::vector<double>(ports_.size(), 0.0), true);
+          PETScWrappers::MPI::Vector reed(owned_, comm_);
+          for (const auto &[i, v] : reed_values_)
             if (owned_.is_element(i))
               reed(i) = v;
-          inlet.compress(VectorOperation::insert);
           reed.compress(VectorOperation::insert);
-          inlet_lift_.reinit(owned_, relevant_, comm_);
           reed_lift_.reinit(owned_, relevant_, comm_);
-          inlet_lift_ = inlet;
-          reed_lift_  = reed;
+          reed_lift_ = reed;
           motion_rhs_.reinit(owned_, comm_);
           motion_solution_.reinit(owned_, comm_);
         }
@@ -554,6 +713,30 @@ namespace rectify::stokes
                      result_.n_velocity_dofs, result_.n_pressure_dofs, n_processes_);
     }
 
+    // No slip on walls and reed (the reed's motion with `reed_moves`), and
+    // on the inlet the ports' unit-flux profiles times `port_weights`.
+    void StokesProblem::make_constraints(AffineConstraints<double> &c, const std::vector<double> &port_weights,
+                                         bool reed_moves) const
+    {
+      c.clear();
+      c.reinit(relevant_);
+      for (const auto i : wall_dofs_)
+        {
+          c.add_line(i);
+          const auto it = reed_values_.find(i);
+          c.set_inhomogeneity(i, reed_moves && it != reed_values_.end() ? it->second : 0.0);
+        }
+      for (const auto &[i, v0] : port_values_[0])
+        {
+          double value = port_weights[0] * v0;
+          for (std::size_t k = 1; k < port_values_.size(); ++k)
+            value += port_weights[k] * port_values_[k].at(i);
+          c.add_line(i);
+          c.set_inhomogeneity(i, value);
+        }
+      c.close();
+    }
+
     // The block system, in the scaled unknowns (u, p / sigma):
     //
     //   [ A        sigma B^T ] [ u         ]   [ f ]
@@ -583,6 +766,10 @@ namespace rectify::stokes
       const bool with_motion = motion_ != nullptr && state == nullptr;
       if (with_motion)
         motion_rhs_ = 0;
+      const bool with_exchange = state == nullptr; // the exchange solves of several ports
+      if (with_exchange)
+        for (auto &rhs : exchange_rhs_)
+          rhs = 0;
       const Vector<double> no_load(fe_.n_dofs_per_cell());
       if (!direct_)
         preconditioner_matrix_ = 0;
@@ -688,6 +875,10 @@ namespace rectify::stokes
                                                     system_rhs_);
             if (with_motion) // solve (b): no traction on the outlet; the reed's motion through the matrix
               motion_constraints_.distribute_local_to_global(no_load, local_dof_indices, motion_rhs_, local_matrix);
+            if (with_exchange)
+              for (std::size_t k = 0; k < exchange_rhs_.size(); ++k)
+                exchange_constraints_[k].distribute_local_to_global(no_load, local_dof_indices, exchange_rhs_[k],
+                                                                    local_matrix);
             if (!direct_)
               constraints_.distribute_local_to_global(local_preconditioner, local_dof_indices, preconditioner_matrix_);
             if (with_gap_laplace)
@@ -701,11 +892,15 @@ namespace rectify::stokes
       system_rhs_.compress(VectorOperation::add);
       if (with_motion)
         motion_rhs_.compress(VectorOperation::add);
+      if (with_exchange)
+        for (auto &rhs : exchange_rhs_)
+          rhs.compress(VectorOperation::add);
     }
 
     // One linear solve of the assembled system into solution_, and with
-    // `with_motion` the fluid loading's solve (b) on the same matrix.
-    void StokesProblem::solve(bool with_motion)
+    // `with_motion` the fluid loading's solve (b) and with several ports
+    // (`with_exchange`) their exchange solves on the same matrix.
+    void StokesProblem::solve(bool with_motion, bool with_exchange)
     {
       if (direct_)
         {
@@ -727,6 +922,9 @@ namespace rectify::stokes
           mumps_->solve(system_matrix_, solution_, system_rhs_);
           if (with_motion)
             mumps_->solve(system_matrix_, motion_solution_, motion_rhs_);
+          if (with_exchange)
+            for (std::size_t k = 0; k < exchange_rhs_.size(); ++k)
+              mumps_->solve(system_matrix_, exchange_solution_[k], exchange_rhs_[k]);
           result_.solver = "direct (MUMPS)";
           result_.iterations += 1;
         }
@@ -741,6 +939,9 @@ namespace rectify::stokes
           std::vector<BlockRhs> systems{{system_rhs_, solution_}};
           if (with_motion)
             systems.push_back({motion_rhs_, motion_solution_, settings_.loading_tolerance, "[flow] loading_tolerance"});
+          if (with_exchange)
+            for (std::size_t k = 0; k < exchange_rhs_.size(); ++k)
+              systems.push_back({exchange_rhs_[k], exchange_solution_[k]});
           result_.iterations += solve_block_system(system_matrix_.petsc_matrix(), preconditioner_matrix_.petsc_matrix(),
                                                    gap_schur_ ? gap_laplace_matrix_.petsc_matrix() : nullptr,
                                                    systems, velocity, pressure, b);
@@ -757,6 +958,14 @@ namespace rectify::stokes
                                      ") returned a non-finite solution for the moving reed; nothing is reported");
           motion_constraints_.distribute(motion_solution_);
         }
+      if (with_exchange)
+        for (std::size_t k = 0; k < exchange_rhs_.size(); ++k)
+          {
+            if (!std::isfinite(exchange_solution_[k].l2_norm()))
+              throw std::runtime_error("the Stokes solver (" + result_.solver +
+                                       ") returned a non-finite solution for a port's share; nothing is reported");
+            exchange_constraints_[k].distribute(exchange_solution_[k]);
+          }
     }
 
     // A solution in physical units (pressure times sigma) with ghost values.
@@ -867,6 +1076,80 @@ namespace rectify::stokes
       return Utilities::MPI::sum(sum, comm_);
     }
 
+    // The generalised pressure drop of port k (relative to p_ref): the
+    // solution's residual tested with the port's unit-flux profile, the work
+    // conjugate to that port's flow (its mean inlet pressure for developed
+    // flow).
+    double StokesProblem::port_residual(const PETScWrappers::MPI::Vector &physical, double p_ref,
+                                        std::size_t port) const
+    {
+      return tested_residual(physical, p_ref, port_lift_[port]);
+    }
+
+    // Several ports: the flow Q splits so that every port's pressure drop is
+    // the same (the ports draw from one chamber). The solution is
+    //   u = u_0 + sum_k q_k d_k,   k = 1 .. n-1,
+    // u_0 all of Q through port 0, d_k unit flux moved from port 0 to port k;
+    // the conditions P_k(u) = P_0(u) are n - 1 linear equations
+    //   sum_k M_jk q_k = -(P_j - P_0)(u_0),   M_jk = (P_j - P_0)(d_k),
+    // M the dissipation's form on the exchange flows (symmetric, positive
+    // definite): the split is the one of least dissipation. The moving
+    // reed's solve (b) (ports shut) gets the same correction with zero net
+    // flow, so the fluid it displaces may leave by any port at equal pressure.
+    void StokesProblem::split_flow()
+    {
+      const std::size_t n = ports_.size();
+      port_flow_.assign(n, 0.0);
+      port_flow_[0] = Q_;
+      if (n == 1)
+        return;
+      const double                            p_out = settings_.outlet_pressure_Pa;
+      std::vector<PETScWrappers::MPI::Vector> d;
+      for (const auto &e : exchange_solution_)
+        d.push_back(physical(e));
+      const auto difference = [&](const PETScWrappers::MPI::Vector &u, double p_ref, std::size_t j) {
+        return port_residual(u, p_ref, j) - port_residual(u, p_ref, 0);
+      };
+      FullMatrix<double> M(n - 1, n - 1);
+      for (std::size_t j = 1; j < n; ++j)
+        for (std::size_t k = 1; k < n; ++k)
+          M(j - 1, k - 1) = difference(d[k - 1], 0.0, j);
+      M.gauss_jordan(); // its inverse
+      const auto shares = [&](const PETScWrappers::MPI::Vector &u, double p_ref) {
+        Vector<double> b(n - 1), q(n - 1);
+        for (std::size_t j = 1; j < n; ++j)
+          b(j - 1) = -difference(u, p_ref, j);
+        M.vmult(q, b);
+        return q;
+      };
+      const Vector<double> q = shares(physical(solution_), p_out);
+      for (std::size_t k = 1; k < n; ++k)
+        {
+          solution_.add(q(k - 1), exchange_solution_[k - 1]);
+          port_flow_[k] = q(k - 1);
+          port_flow_[0] -= q(k - 1);
+        }
+      if (motion_ != nullptr)
+        {
+          const Vector<double> c = shares(physical(motion_solution_), 0.0);
+          for (std::size_t k = 1; k < n; ++k)
+            motion_solution_.add(c(k - 1), exchange_solution_[k - 1]);
+        }
+      // The inlet's data from now on: the loading's unit-flow lift, and
+      // Newton's steps (Navier-Stokes keeps the Stokes flow's split).
+      PETScWrappers::MPI::Vector lift(owned_, comm_);
+      for (std::size_t k = 0; k < n; ++k)
+        for (const auto &[i, v] : port_values_[k])
+          if (owned_.is_element(i))
+            lift(i) += port_flow_[k] / Q_ * v;
+      lift.compress(VectorOperation::add);
+      inlet_lift_ = lift;
+      make_constraints(constraints_, port_flow_, false);
+      if (verbose_ && root_)
+        for (std::size_t k = 0; k < n; ++k)
+          std::fprintf(stderr, "  port %zu: %.6f of the flow\n", k + 1, port_flow_[k] / Q_);
+    }
+
     // The 2x2 map from solves (a) (solution_, flow Q_) and (b) (the reed
     // moving at unit tip velocity), then the added mass.
     void StokesProblem::compute_loading()
@@ -965,7 +1248,7 @@ namespace rectify::stokes
           t = Clock::now();
           try
             {
-              solve(false);
+              solve(false, false);
             }
           catch (const std::runtime_error &e)
             {
@@ -1011,9 +1294,10 @@ namespace rectify::stokes
       result_.assembly_time_s = seconds_since(t);
       lap("flow: assembly");
       t = Clock::now();
-      solve(motion_ != nullptr);
+      solve(motion_ != nullptr, ports_.size() > 1);
       result_.solve_time_s = seconds_since(t);
       lap(direct_ ? "flow: solve (MUMPS)" : "flow: solve (FGMRES)");
+      split_flow();
       make_physical_solution();
       store(evaluate(physical_solution_, settings_.outlet_pressure_Pa));
       result_.stokes_R_Pa_s_per_m3                      = result_.R_pressure_Pa_s_per_m3;
@@ -1022,6 +1306,20 @@ namespace rectify::stokes
         compute_loading();
       if (settings_.navier_stokes)
         newton_iteration();
+      {
+        // Each port's flow and pressure drop (of the Stokes flow's split).
+        for (std::size_t k = 0; k < ports_.size(); ++k)
+          {
+            PortFlow    p;
+            const auto &c = ports_[k].frame.centre;
+            p.centre_m    = {c[0], c[1], c[2]};
+            p.area_m2     = ports_[k].area;
+            p.round       = ports_[k].round;
+            p.flow_m3_per_s = port_flow_[k];
+            p.pressure_drop_Pa = port_residual(physical_solution_, settings_.outlet_pressure_Pa, k);
+            result_.ports.push_back(p);
+          }
+      }
       if (!vtu_dir.empty())
         output_results(vtu_dir);
       result_.wall_time_s = seconds_since(start_);

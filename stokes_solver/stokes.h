@@ -110,6 +110,22 @@ namespace rectify::stokes
     double      solve_time_s = 0; ///< solve (b), the forces and the potential flow
   };
 
+  /// One port's share of the flow. Several ports draw from one chamber: the
+  /// flow splits so that every port's pressure drop is the same (the
+  /// split of least dissipation). Each port's inflow is its bore's developed
+  /// profile: a round port's parabola, any other section's duct flow.
+  struct PortFlow
+  {
+    std::array<double, 3> centre_m{}; ///< of its inlet face
+    double area_m2 = 0;               ///< of its inlet face
+    bool   round   = false;           ///< the parabola (else the duct profile)
+    double flow_m3_per_s = 0;         ///< of the Stokes flow (Navier-Stokes keeps this split)
+    /// The solution's residual tested with the port's unit-flux profile
+    /// (relative to the outlet): the work-conjugate pressure drop, the
+    /// same for every port to the solver's precision.
+    double pressure_drop_Pa = 0;
+  };
+
   struct StokesResult
   {
     double R_pressure_Pa_s_per_m3    = 0; ///< (mean p on inlet - mean p on outlet) / Q
@@ -138,12 +154,13 @@ namespace rectify::stokes
     double      setup_time_s = 0, assembly_time_s = 0, solve_time_s = 0, wall_time_s = 0;
     unsigned    n_processes = 1;
     FluidLoading loading; ///< with a ReedMotion only
+    std::vector<PortFlow> ports; ///< one per connected patch of the inlet, in the mesh's order
   };
 
   /// Solves Stokes flow (and with settings.navier_stokes then steady
   /// Navier-Stokes, by Newton's method from it) with flow rate settings.flow_rate_m3_per_s through
-  /// the inlet (a parabolic profile on the inlet face, scaled so that the
-  /// discrete flux is exactly Q), traction -p_out n on the outlet, no slip
+  /// the inlet (each port's developed profile, scaled so that the discrete
+  /// flux is exactly its share of Q; PortFlow), traction -p_out n on the outlet, no slip
   /// elsewhere. Every process passes the same mesh. Writes velocity and
   /// pressure as VTU (with a .pvtu record) into `vtu_dir` if not empty.
   /// Throws InputError for bad parameters or a mesh without inlet or outlet,

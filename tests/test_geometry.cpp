@@ -63,8 +63,6 @@ TEST(Geometry, TheOutlinePathDescribesTheReferenceValveAsTheShorthandDoes)
   EXPECT_EQ(outline.reed_width_m, shorthand.reed_width_m);
   EXPECT_DOUBLE_EQ(outline.port_diameter_m, shorthand.port_diameter_m);
   EXPECT_EQ(outline.port_center_x_m, shorthand.port_center_x_m);
-  EXPECT_TRUE(outline.has_one_round_port());
-  EXPECT_TRUE(shorthand.has_one_round_port());
   // The shorthand's record is what it always was (a map set's hash).
   EXPECT_EQ(shorthand.to_json().size(), 10u);
   EXPECT_TRUE(outline.to_json().contains("reed_outline_m"));
@@ -201,7 +199,6 @@ TEST(Geometry, EveryExampleIsValidAndDrawn)
   }
   const auto two = ValveGeometry::from_case(CaseFile::load(cases_dir() / "two-ports.toml"));
   EXPECT_EQ(two.ports().size(), 2u);
-  EXPECT_FALSE(two.has_one_round_port());
   EXPECT_NEAR(two.ports_area_m2(), 2 * M_PI * 1e-6, 1e-18);
 }
 
