@@ -25,6 +25,8 @@ namespace rectify
         lines.push_back(line);
     }
     const std::regex table_re(R"(^\s*\[\s*([A-Za-z0-9_]+)\s*\]\s*(#.*)?$)");
+    // An array of tables ([[port]]): its keys are no table's that an entry names.
+    const std::regex array_table_re(R"(^\s*\[\[\s*([A-Za-z0-9_]+)\s*\]\]\s*(#.*)?$)");
     const std::regex key_re(R"(^\s*([A-Za-z0-9_]+)\s*=\s*(.*)$)");
     const std::regex path_value_re(R"re(^"([^"]*)"(.*)$)re");
     std::string      table;
@@ -41,6 +43,13 @@ namespace rectify
     for (const auto &line : lines)
       {
         std::smatch m;
+        if (std::regex_match(line, m, array_table_re))
+          {
+            flush_table(table);
+            table = "[[" + m[1].str() + "]]";
+            out.push_back(line);
+            continue;
+          }
         if (std::regex_match(line, m, table_re))
           {
             flush_table(table);
@@ -62,9 +71,12 @@ namespace rectify
                 }
             if (replaced)
               continue;
-            const bool is_path = (table == "valves" && key == "resistance_map") ||
-                                 (table == "reed" && key == "properties_map") ||
-                                 (table == "drive" && key == "waveform");
+            const bool is_path =
+              (table == "valves" &&
+               (key == "resistance_map" || key == "map_set" || key == "outlet_map_set" || key == "inlet_map_set")) ||
+              (table == "reed" && key == "properties_map") || (table == "drive" && key == "waveform") ||
+              (table == "mesh" && key == "shape_table") || (table == "geometry" && key == "reed_outline_csv") ||
+              (table == "[[port]]" && key == "outline_csv");
             std::smatch pv;
             const std::string value = m[2];
             if (is_path && std::regex_match(value, pv, path_value_re) && pv[1] != "sine" &&

@@ -17,7 +17,10 @@ namespace rectify
   };
 
   /// The edited text. `base_dir` resolves the original's relative paths
-  /// (valves.resistance_map, reed.properties_map, drive.waveform).
+  /// (valves.resistance_map and the map sets, reed.properties_map,
+  /// drive.waveform, mesh.shape_table, the outlines' CSV files). An entry's
+  /// table is a plain table ([geometry]); keys under an array of tables
+  /// ([[port]]) are left as they are.
   std::string edit_case_text(const std::string &text, const std::filesystem::path &base_dir,
                              const std::vector<CaseEntry> &entries);
 } // namespace rectify

@@ -6,8 +6,10 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 
 #include "cli_helpers.h"
+#include "common/case_edit.h"
 #include "common/case_file.h"
 #include "common/polygon.h"
 #include "common/valve_geometry.h"
@@ -299,4 +301,29 @@ TEST(Geometry, AMapOfAnotherOutlineIsNotResumed)
   const auto second = test_support::rectify_cli("map-stiffness --case " + (dir / "widening.toml").string() +
                                                 " --thickness 0.1e-3:0.12e-3:2 --out " + out.string());
   EXPECT_NE(second.exit_code, 0) << second.output;
+}
+
+// A what-if edits a case's text (common/case_edit.h): on an outline case a
+// [geometry] key goes into [geometry], not into the [[port]] table after it
+// (which refused the edited case: "unknown key"), and the outlines' CSV
+// files are found from wherever the edited case is read.
+TEST(Geometry, AnEditedOutlineCaseKeepsItsPortsAndItsFiles)
+{
+  for (const char *name : {"two-ports", "slotted-port"})
+    {
+      std::ifstream     in(cases_dir() / (std::string(name) + ".toml"));
+      std::stringstream text;
+      text << in.rdbuf();
+      const std::string edited = edit_case_text(text.str(), cases_dir(),
+                                                {{"geometry", "reed_thickness_m", "0.2e-3", "what-if"},
+                                                 {"mesh", "size_reed_m", "0.25e-3", "what-if"}});
+      const CaseFile f  = CaseFile::parse(edited, "edited.toml", "/"); // read from elsewhere
+      const auto     mp = mesher::MeshParameters::from_case(f);
+      EXPECT_EQ(mp.geometry.reed_thickness_m, 0.2e-3) << name;
+      EXPECT_EQ(mp.settings.size_reed_m, 0.25e-3) << name;
+      const auto original = ValveGeometry::from_case(CaseFile::load(cases_dir() / (std::string(name) + ".toml")));
+      ASSERT_EQ(mp.geometry.ports().size(), original.ports().size()) << name;
+      for (std::size_t k = 0; k < original.ports().size(); ++k)
+        EXPECT_EQ(mp.geometry.ports()[k].polygon(64), original.ports()[k].polygon(64)) << name << " port " << k;
+    }
 }
