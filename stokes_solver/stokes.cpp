@@ -220,9 +220,11 @@ namespace rectify::stokes
     };
 
     /// The inlet's patches, in the order of their first face. A patch is
-    /// round if it has at least 12 rim vertices and all lie on one circle
-    /// within 1e-6 of its radius (least squares); the mesher's round ports
-    /// do (their polygons' vertices are on the circle).
+    /// round if its rim has at least 12 corners (vertices not on a straight
+    /// stretch of it) and all lie on one circle within 1e-6 of its radius
+    /// (least squares); the mesher's round ports do (their polygons'
+    /// vertices are on the circle; the triangulation adds points along the
+    /// polygon's edges).
     std::vector<InletPort> inlet_ports(const mesher::TetMesh &m)
     {
       // Union-find of the inlet faces over their shared vertices.
@@ -296,12 +298,27 @@ namespace rectify::stokes
               const auto &a = points[t[0]], &b = points[t[1]], &c = points[t[2]];
               port.area += 0.5 * std::abs((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]));
             }
-          std::vector<std::size_t> rim;
+          // The rim's corners: its vertices but those on a straight stretch
+          // (a triangulation's points along a polygon's edge).
+          std::map<std::size_t, std::vector<std::size_t>> rim_neighbours;
           for (const auto &[e, count] : edges)
             if (count == 1)
-              rim.push_back(e.first), rim.push_back(e.second);
-          std::sort(rim.begin(), rim.end());
-          rim.erase(std::unique(rim.begin(), rim.end()), rim.end());
+              {
+                rim_neighbours[e.first].push_back(e.second);
+                rim_neighbours[e.second].push_back(e.first);
+              }
+          std::vector<std::size_t> rim;
+          for (const auto &[v, nb] : rim_neighbours)
+            {
+              if (nb.size() == 2)
+                {
+                  const auto  &p = points[v], &a = points[nb[0]], &b = points[nb[1]];
+                  const double ux = p[0] - a[0], uy = p[1] - a[1], wx = b[0] - p[0], wy = b[1] - p[1];
+                  if (std::abs(ux * wy - uy * wx) <= 1e-9 * std::hypot(ux, uy) * std::hypot(wx, wy))
+                    continue;
+                }
+              rim.push_back(v);
+            }
           if (rim.size() >= 12)
             {
               // Least squares: u^2 + v^2 + D u + E v + F = 0 (Kasa's fit).

@@ -306,6 +306,10 @@ TEST(Stokes, TwoProcessesGiveTheOneProcessResult)
     EXPECT_NEAR(s2[key].get<double>() / s1[key].get<double>(), 1.0, 1e-9) << key;
   EXPECT_EQ(s1["n_dofs"], s2["n_dofs"]);
   EXPECT_LT(s2["mass_balance_rel_error"].get<double>(), 1e-8);
+  // the reference valve's port: round, the parabola, all of the flow
+  ASSERT_EQ(s1["ports"].size(), 1u);
+  EXPECT_EQ(s1["ports"][0]["inflow"], "parabola (round)");
+  EXPECT_EQ(s1["ports"][0]["flow_share"].get<double>(), 1.0);
 }
 
 TEST(Stokes, BadInputIsRejected)
@@ -626,6 +630,7 @@ TEST(Stokes, TwoPortsShareTheGapAsTheThinGapEstimateSays)
   EXPECT_LT(r.loading.asymmetry, 1e-6);
   EXPECT_LT(r.mass_balance_rel_error, 1e-8);
   ASSERT_EQ(r.ports.size(), 2u);
+  EXPECT_TRUE(r.ports[0].round && r.ports[1].round); // the mesher's round ports keep the parabola
   EXPECT_NEAR(r.ports[0].flow_m3_per_s / 1.58e-6, 0.5, 2e-3);
   EXPECT_NEAR(r.ports[1].pressure_drop_Pa / r.ports[0].pressure_drop_Pa, 1.0, 1e-6);
 }
