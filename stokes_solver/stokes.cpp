@@ -430,7 +430,8 @@ namespace rectify::stokes
       void          split_flow();
       void          make_constraints(AffineConstraints<double> &c, const std::vector<double> &port_weights,
                                      bool reed_moves) const;
-      double        port_residual(const PETScWrappers::MPI::Vector &physical, double p_ref, std::size_t port) const;
+      void          set_ghosted(PETScWrappers::MPI::Vector &out, const std::map<types::global_dof_index, double> &values) const;
+      double        inflow(const PETScWrappers::MPI::Vector &lift, types::boundary_id boundary) const;
       void          compute_loading();
       void          store(const FlowIntegrals &integrals);
       void          newton_iteration();
@@ -591,30 +592,6 @@ namespace rectify::stokes
           for (const auto &[i, v] : fixed_wall_values)
             reed_values_.erase(i);
         }
-      // A profile's discrete flux, integral of -u.n over the inlet.
-      const auto flux_of = [&](const std::map<types::global_dof_index, double> &values) {
-        FEFaceValues<3> face_values(mapping_, fe_, face_quadrature_,
-                                    update_values | update_normal_vectors | update_JxW_values);
-        std::vector<types::global_dof_index> dofs(fe_.n_dofs_per_cell());
-        double                               flux = 0;
-        for (const auto &cell : dof_handler_.active_cell_iterators())
-          if (cell->is_locally_owned())
-            for (const auto f : cell->face_indices())
-              if (cell->face(f)->at_boundary() && cell->face(f)->boundary_id() == mesher::inlet)
-                {
-                  face_values.reinit(cell, f);
-                  cell->get_dof_indices(dofs);
-                  for (unsigned q = 0; q < face_values.n_quadrature_points; ++q)
-                    {
-                      Tensor<1, 3> u;
-                      for (unsigned i = 0; i < dofs.size(); ++i)
-                        if (const auto it = values.find(dofs[i]); it != values.end())
-                          u += it->second * face_values[velocities_].value(i, q);
-                      flux -= u * face_values.normal_vector(q) * face_values.JxW(q);
-                    }
-                }
-        return Utilities::MPI::sum(flux, comm_);
-      };
       for (const auto &port : ports_)
         {
           std::map<types::global_dof_index, double> values;
@@ -622,7 +599,9 @@ namespace rectify::stokes
                                                    fe_.component_mask(velocities_));
           for (const auto &[i, v] : wall_values)
             values.erase(i);
-          const double flux = flux_of(values);
+          port_lift_.emplace_back();
+          set_ghosted(port_lift_.back(), values);
+          const double flux = inflow(port_lift_.back(), mesher::inlet); // of the discrete profile
           if (!(flux > 0))
             {
               const auto &c = port.frame.centre;
@@ -632,17 +611,8 @@ namespace rectify::stokes
             }
           for (auto &[i, v] : values)
             v /= flux;
+          set_ghosted(port_lift_.back(), values); // unit flux
           port_values_.push_back(std::move(values));
-        }
-      for (const auto &values : port_values_)
-        {
-          PETScWrappers::MPI::Vector owned(owned_, comm_);
-          for (const auto &[i, v] : values)
-            if (owned_.is_element(i))
-              owned(i) = v;
-          owned.compress(VectorOperation::insert);
-          port_lift_.emplace_back(owned_, relevant_, comm_);
-          port_lift_.back() = owned;
         }
       inlet_lift_.reinit(owned_, relevant_, comm_);
       inlet_lift_ = port_lift_[0];
@@ -665,13 +635,7 @@ namespace rectify::stokes
         {
           // The same DoFs constrained (walls, reed, inlet), so the same matrix.
           make_constraints(motion_constraints_, std::vector<double>(ports_.size(), 0.0), true);
-          PETScWrappers::MPI::Vector reed(owned_, comm_);
-          for (const auto &[i, v] : reed_values_)
-            if (owned_.is_element(i))
-              reed(i) = v;
-          reed.compress(VectorOperation::insert);
-          reed_lift_.reinit(owned_, relevant_, comm_);
-          reed_lift_ = reed;
+          set_ghosted(reed_lift_, reed_values_);
           motion_rhs_.reinit(owned_, comm_);
           motion_solution_.reinit(owned_, comm_);
         }
@@ -1093,14 +1057,39 @@ namespace rectify::stokes
       return Utilities::MPI::sum(sum, comm_);
     }
 
-    // The generalised pressure drop of port k (relative to p_ref): the
-    // solution's residual tested with the port's unit-flux profile, the work
-    // conjugate to that port's flow (its mean inlet pressure for developed
-    // flow).
-    double StokesProblem::port_residual(const PETScWrappers::MPI::Vector &physical, double p_ref,
-                                        std::size_t port) const
+    // Boundary data (DoF -> value, this process's entries among them) as a
+    // vector with ghost values, zero elsewhere.
+    void StokesProblem::set_ghosted(PETScWrappers::MPI::Vector                      &out,
+                                    const std::map<types::global_dof_index, double> &values) const
     {
-      return tested_residual(physical, p_ref, port_lift_[port]);
+      PETScWrappers::MPI::Vector owned(owned_, comm_);
+      for (const auto &[i, v] : values)
+        if (owned_.is_element(i))
+          owned(i) = v;
+      owned.compress(VectorOperation::insert);
+      out.reinit(owned_, relevant_, comm_);
+      out = owned;
+    }
+
+    // The flow boundary data `lift` carries into the domain through the
+    // faces of `boundary`, -integral of u.n, summed over the processes.
+    double StokesProblem::inflow(const PETScWrappers::MPI::Vector &lift, types::boundary_id boundary) const
+    {
+      FEFaceValues<3> face_values(mapping_, fe_, face_quadrature_,
+                                  update_values | update_normal_vectors | update_JxW_values);
+      std::vector<Tensor<1, 3>> u(face_quadrature_.size());
+      double                    flux = 0;
+      for (const auto &cell : dof_handler_.active_cell_iterators())
+        if (cell->is_locally_owned())
+          for (const auto f : cell->face_indices())
+            if (cell->face(f)->at_boundary() && cell->face(f)->boundary_id() == boundary)
+              {
+                face_values.reinit(cell, f);
+                face_values[velocities_].get_function_values(lift, u);
+                for (unsigned q = 0; q < face_values.n_quadrature_points; ++q)
+                  flux -= u[q] * face_values.normal_vector(q) * face_values.JxW(q);
+              }
+      return Utilities::MPI::sum(flux, comm_);
     }
 
     // Several ports: the flow Q splits so that every port's pressure drop is
@@ -1125,7 +1114,7 @@ namespace rectify::stokes
       for (const auto &e : exchange_solution_)
         d.push_back(physical(e));
       const auto difference = [&](const PETScWrappers::MPI::Vector &u, double p_ref, std::size_t j) {
-        return port_residual(u, p_ref, j) - port_residual(u, p_ref, 0);
+        return tested_residual(u, p_ref, port_lift_[j]) - tested_residual(u, p_ref, port_lift_[0]);
       };
       FullMatrix<double> M(n - 1, n - 1);
       for (std::size_t j = 1; j < n; ++j)
@@ -1154,13 +1143,11 @@ namespace rectify::stokes
         }
       // The inlet's data from now on: the loading's unit-flow lift, and
       // Newton's steps (Navier-Stokes keeps the Stokes flow's split).
-      PETScWrappers::MPI::Vector lift(owned_, comm_);
+      std::map<types::global_dof_index, double> lift;
       for (std::size_t k = 0; k < n; ++k)
         for (const auto &[i, v] : port_values_[k])
-          if (owned_.is_element(i))
-            lift(i) += port_flow_[k] / Q_ * v;
-      lift.compress(VectorOperation::add);
-      inlet_lift_ = lift;
+          lift[i] += port_flow_[k] / Q_ * v;
+      set_ghosted(inlet_lift_, lift);
       make_constraints(constraints_, port_flow_, false);
       if (verbose_ && root_)
         for (std::size_t k = 0; k < n; ++k)
@@ -1187,25 +1174,9 @@ namespace rectify::stokes
       const FlowIntegrals f = evaluate(b, 0.0);
       L.outflow_b_m3_per_s  = f.outlet_flux_m3_per_s;
       L.reed_force_b_N      = f.reed_force_N[2];
-      {
-        // The discrete motion's flux (where the reed meets a fixed wall, the
-        // wall's DoFs hold it at zero).
-        FEFaceValues<3> face_values(mapping_, fe_, face_quadrature_,
-                                    update_values | update_normal_vectors | update_JxW_values);
-        std::vector<Tensor<1, 3>> w(face_quadrature_.size());
-        double                    swept = 0;
-        for (const auto &cell : dof_handler_.active_cell_iterators())
-          if (cell->is_locally_owned())
-            for (const auto f : cell->face_indices())
-              if (cell->face(f)->at_boundary() && cell->face(f)->boundary_id() == mesher::reed)
-                {
-                  face_values.reinit(cell, f);
-                  face_values[velocities_].get_function_values(reed_lift_, w);
-                  for (unsigned q = 0; q < face_values.n_quadrature_points; ++q)
-                    swept -= w[q] * face_values.normal_vector(q) * face_values.JxW(q);
-                }
-        L.swept_flow_m3_per_s = Utilities::MPI::sum(swept, comm_);
-      }
+      // The discrete motion's flux (where the reed meets a fixed wall, the
+      // wall's DoFs hold it at zero).
+      L.swept_flow_m3_per_s = inflow(reed_lift_, mesher::reed);
       L.mass_balance_b_rel_error = std::abs(L.outflow_b_m3_per_s - L.swept_flow_m3_per_s) /
                                    std::max(std::abs(L.swept_flow_m3_per_s), 1e-300);
       if (motion_->added_mass)
@@ -1333,7 +1304,8 @@ namespace rectify::stokes
             p.area_m2     = ports_[k].area;
             p.round       = ports_[k].round;
             p.flow_m3_per_s = port_flow_[k];
-            p.pressure_drop_Pa = port_residual(physical_solution_, settings_.outlet_pressure_Pa, k);
+            // the solution's residual tested with the port's unit-flux profile
+            p.pressure_drop_Pa = tested_residual(physical_solution_, settings_.outlet_pressure_Pa, port_lift_[k]);
             result_.ports.push_back(p);
           }
       }
