@@ -5,8 +5,10 @@
 // Diagnosis.ForeignBenchLeakIsNamed (python bench, bench/foreign/).
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <random>
@@ -394,9 +396,14 @@ TEST(ForeignData, AnUncertainBaselineIsCalibratedNotMistakenForAnEffect)
 // A strong leak on a rig whose accumulator holds 3.0e-5 m^3 of gas, not the
 // case's 1.64e-5 (and whose lines' bore is 5.6 mm, not 4.57): the baseline
 // fit without the leak is hundreds of noise units off, which inflates every
-// standard error, and the gas volume is held at the case's value. Judged
-// again at the leak's fit the data determine it: it is freed for the refits
-// and moves toward the rig's value (held, it would stay at the case's).
+// standard error, and holds at least one [uncertain] parameter at the
+// case's value. Judged again at the leak's fit, a held parameter the data
+// now determine is freed for the refits and lands on the rig's value within
+// its standard error. Which one that is depends on the far-off baseline
+// fit's details (with the solver's tolerance weights of 2026-11-24 the
+// cylinder's area, held for its -0.997 correlation with the oil column;
+// before, the gas volume, whose standard error of range went from 0.21 to
+// 0.14 against the limit 0.15): the test asserts the mechanism.
 TEST(ForeignData, ABaselineParameterHeldWithoutTheEffectIsFreedWhereTheEffectsFitDeterminesIt)
 {
   const auto  dir  = scratch("foreign_freed");
@@ -422,17 +429,25 @@ TEST(ForeignData, ABaselineParameterHeldWithoutTheEffectIsFreedWhereTheEffectsFi
                                   dir / "d");
   ASSERT_FALSE(s.is_null());
   ASSERT_EQ(s["effect"], "valve_leakage") << s["decision"];
-  bool held = false;
+  const std::map<std::string, double> rig{{"accumulator.gas_volume_m3", 3.0e-5},
+                                          {"cylinder.piston_area_m2", 1.29032e-4},
+                                          {"cylinder.wetted_length_m", 0.0254},
+                                          {"lines.diameter_m", 5.6e-3}};
+  std::map<std::string, std::array<double, 2>> held; // parameter -> bounds
   for (const auto &b : s["baseline_fit"])
-    if (b["parameter"] == "accumulator.gas_volume_m3")
-      held = !b["identifiable"].get<bool>();
-  ASSERT_TRUE(held) << s["baseline_fit"].dump(1);
-  ASSERT_EQ(s["freed_at_the_named_fit"].size(), 1u) << s["freed_at_the_named_fit"].dump(1);
-  EXPECT_EQ(s["freed_at_the_named_fit"][0]["parameter"], "accumulator.gas_volume_m3");
-  // from the case's 1.64e-5 at least a third of the way (in log) to the rig's 3.0e-5
-  const double gas = s["baseline"]["accumulator.gas_volume_m3"].get<double>();
-  EXPECT_GT(std::log(gas / 1.6387e-5), std::log(3.0e-5 / 1.6387e-5) / 3) << gas;
-  EXPECT_LT(gas, 3.3e-5);
+    if (!b["identifiable"].get<bool>() && b["parameter"] != "force_gain")
+      held[b["parameter"].get<std::string>()] = {b["bounds"][0].get<double>(), b["bounds"][1].get<double>()};
+  ASSERT_GE(held.size(), 1u) << s["baseline_fit"].dump(1);
+  ASSERT_GE(s["freed_at_the_named_fit"].size(), 1u) << s["freed_at_the_named_fit"].dump(1);
+  for (const auto &f : s["freed_at_the_named_fit"])
+    {
+      const auto name = f["parameter"].get<std::string>();
+      ASSERT_TRUE(held.count(name)) << name << " was not held";
+      ASSERT_TRUE(rig.count(name)) << name;
+      const double sd = f["standard_error_of_range"].get<double>() * (held[name][1] - held[name][0]);
+      EXPECT_LT(f["standard_error_of_range"].get<double>(), 0.15) << name;
+      EXPECT_NEAR(s["baseline"][name].get<double>(), rig.at(name), 3 * sd) << name;
+    }
   EXPECT_NEAR(s["baseline"]["lines.diameter_m"].get<double>(), 5.6e-3, 0.03 * 5.6e-3);
   EXPECT_NEAR(s["parameters"]["leak_resistance_Pa_s_per_m3"].get<double>(), 1e11, 0.03 * 1e11);
   EXPECT_LT(s["residual_after"]["overall"].get<double>(), 1.5);
