@@ -814,3 +814,21 @@ TEST(Model, TheCaseToleranceGivesTheAnswerOfATightRunWhereTheAnswerIsDefined)
       EXPECT_NEAR(values[0], values[1], 1e-3 * std::abs(values[1])) << f << " Hz";
     }
 }
+
+TEST(Cli, EveryCaseFileInTheRepositoryPassesCheck)
+{
+  // cases/ holds the reference, the examples and the benchmarks' levels; a
+  // user starts from any of them (cases/flow-levels/ once looked for the
+  // R(x) table beside themselves).
+  const auto dir   = scratch("check_all");
+  int        count = 0;
+  for (const auto &entry : std::filesystem::recursive_directory_iterator(reference_case_path().parent_path()))
+    if (entry.path().extension() == ".toml")
+      {
+        ++count;
+        const auto out = dir / std::to_string(count);
+        const auto r   = rectify_cli("check --case " + entry.path().string() + " --out " + out.string());
+        EXPECT_EQ(r.exit_code, 0) << entry.path() << "\n" << r.output;
+      }
+  EXPECT_GE(count, 11);
+}
