@@ -285,24 +285,36 @@ namespace rectify::diagnosis
     /// dependence on such a parameter is a comb of basins: over the
     /// training part of a 100 Hz run a basin is about +-1 % of L wide, over
     /// its first 3 cycles +-5 % (the ringing's phase error grows with time).
-    /// So: (1) the frequency of the largest peak in the residual of the
-    /// outlet (or chamber) pressure of each run, between 2.5 f and 0.4 of
-    /// the sampling rate; their median is the ringing to match; (2) the
+    /// So: (1) the frequencies of the three largest peaks in the residual
+    /// of the outlet (or chamber) pressure of each run, between 2.5 f and
+    /// 0.4 of the sampling rate, merged over the runs (within 5 %; those
+    /// most runs show first): each is a ringing to match with the
+    /// parameter's lowest mode (a line rings at its higher modes too, and
+    /// the largest peak is not always the lowest mode); (2) the
     /// ringing depends on the baseline too (a line's oil, from its
     /// uncertain bore, sets its wave speed): along each free [uncertain]
     /// parameter that moves the ringing by more than 5 % over its range,
-    /// 9 positions, each with the value that rings at that frequency
-    /// there, compared over the first 3 cycles of each run (the baseline
-    /// as its fit left it, and at the case's values); (3) about the best, a
-    /// scan of +-25 % in 2 % steps over the first 3 cycles, (4) then +-2 %
-    /// in 0.5 % steps over the first 6. Returns the best point of (4) (gain
-    /// as in the start), or an empty vector when the residual shows no
-    /// ringing in the parameter's range; counts its (short) runs of the
-    /// model into runs_of_the_model.
-    std::vector<double> ringing_start(const Evaluator &ev, int &runs_of_the_model)
+    /// 9 positions, and over each pair of them a 7 x 7 grid (a line's bore
+    /// and the oil column can both be far off), each with the value that
+    /// rings at that frequency there, compared over the first 3 cycles of
+    /// each run (the baseline as its fit left it, and at the case's
+    /// values), for each frequency of (1); (3) about each frequency's best,
+    /// a scan of +-25 % in 2 % steps over the first 3 cycles, (4) then +-2 %
+    /// in 0.5 % steps over the first 6. Returns the best point of (4) of
+    /// each frequency, best first (gain as in the start; the caller refines
+    /// each: over 6 cycles from rest a line's lowest mode set to ring at
+    /// its second mode's peak can score better than the right one), or
+    /// nothing when the residual shows no ringing in the parameter's range;
+    /// counts its (short) runs of the model into runs_of_the_model.
+    std::vector<std::vector<double>> ringing_start(const Evaluator &ev, int &runs_of_the_model)
     {
       const EffectParameter &par = ev.effect->parameters()[0];
-      std::vector<double>    peaks;
+      struct Peak
+      {
+        double      f;
+        std::size_t rank;
+      };
+      std::vector<Peak> peaks;
       for (std::size_t r = 0; r < ev.runs.size(); ++r)
         {
           const auto       &rc = ev.runs[r];
@@ -324,17 +336,40 @@ namespace rectify::diagnosis
           const double f_low  = std::max(2.5 * rc.setup.frequency_Hz, par.ringing_Hz(par.upper, ev.base));
           if (!(f_low < f_high))
             continue;
-          if (const double f_peak = dominant_frequency(t, residual, f_low, f_high); f_peak > 0)
-            peaks.push_back(f_peak);
+          const auto found = spectral_peaks(t, residual, f_low, f_high, 3);
+          for (std::size_t k = 0; k < found.size(); ++k)
+            peaks.push_back({found[k], k});
         }
       if (peaks.empty())
         return {};
-      std::sort(peaks.begin(), peaks.end());
-      const double f_peak = peaks[peaks.size() / 2];
+      // merge the runs' peaks within 5 %: most runs first, then the larger
+      // (lower mean rank); each cluster's median frequency
+      std::sort(peaks.begin(), peaks.end(), [](const Peak &a, const Peak &b) { return a.f < b.f; });
+      struct Cluster
+      {
+        double f;
+        double runs, mean_rank;
+      };
+      std::vector<Cluster> clusters;
+      for (std::size_t a = 0; a < peaks.size();)
+        {
+          std::size_t b = a;
+          double      rank = 0;
+          while (b < peaks.size() && peaks[b].f < 1.05 * peaks[a].f)
+            rank += static_cast<double>(peaks[b++].rank);
+          const double n = static_cast<double>(b - a);
+          clusters.push_back({peaks[a + (b - a) / 2].f, n, rank / n});
+          a = b;
+        }
+      std::stable_sort(clusters.begin(), clusters.end(), [](const Cluster &a, const Cluster &b) {
+        return a.runs != b.runs ? a.runs > b.runs : a.mean_rank < b.mean_rank;
+      });
+      if (clusters.size() > 3)
+        clusters.resize(3);
 
       // the parameter's unit position that rings at f_peak on the model at u
       // (ringing_Hz decreases in the value), or nothing when out of range
-      const auto ringing_at = [&](const std::vector<double> &u) -> std::optional<double> {
+      const auto ringing_at = [&](const std::vector<double> &u, double f_peak) -> std::optional<double> {
         const auto p = ev.parameters(u);
         if (!(par.ringing_Hz(par.upper, p) < f_peak && f_peak < par.ringing_Hz(par.lower, p)))
           return std::nullopt;
@@ -350,69 +385,103 @@ namespace rectify::diagnosis
       const unsigned dim = static_cast<unsigned>(ev.dimension());
       Evaluator      short_ev = ev;
       short_ev.horizon_cycles = 3.0;
-      Objective o3{&short_ev, 0, 0, 0, 1e300, {}};
-      const auto try_point = [&](std::vector<double> u) {
-        if (const auto at = ringing_at(u))
-          {
-            u[0] = *at;
-            objective(dim, u.data(), nullptr, &o3);
-          }
-      };
       std::vector<std::vector<double>> bases{ev.start_point()};
       if (const auto prior = ev.prior_point(); prior != bases[0])
         bases.push_back(prior);
-      for (const auto &b : bases)
+      struct Found
+      {
+        double              value; ///< over the first 6 cycles
+        std::vector<double> u;
+      };
+      std::vector<Found> found;
+      for (const auto &cluster : clusters)
         {
-          const auto at = ringing_at(b); // the value that rings at f_peak here
-          if (!at)
-            continue;
-          try_point(b);
-          for (std::size_t i = 0; i < ev.free.size(); ++i)
-            {
-              // does this baseline parameter move that ringing?
-              const std::size_t j = ev.n_effect() + i;
-              auto lo = b, hi = b;
-              lo[0] = hi[0] = *at;
-              lo[j] = 0.0;
-              hi[j] = 1.0;
-              const double f_lo = par.ringing_Hz(par.from_unit(*at), ev.parameters(lo));
-              const double f_hi = par.ringing_Hz(par.from_unit(*at), ev.parameters(hi));
-              if (!(std::abs(std::log(f_hi / f_lo)) > 0.05))
-                continue;
+          const double f_peak = cluster.f;
+          Objective    o3{&short_ev, 0, 0, 0, 1e300, {}};
+          const auto   try_point = [&](std::vector<double> u) {
+            if (const auto at = ringing_at(u, f_peak))
+              {
+                u[0] = *at;
+                objective(dim, u.data(), nullptr, &o3);
+              }
+          };
+          const auto valley = [&](const std::vector<double> &b) {
+            const auto at = ringing_at(b, f_peak); // the value that rings at f_peak here
+            if (!at)
+              return;
+            try_point(b);
+            // the baseline parameters that move that ringing
+            std::vector<std::size_t> moving;
+            for (std::size_t i = 0; i < ev.free.size(); ++i)
+              {
+                const std::size_t j = ev.n_effect() + i;
+                auto lo = b, hi = b;
+                lo[0] = hi[0] = *at;
+                lo[j] = 0.0;
+                hi[j] = 1.0;
+                const double f_lo = par.ringing_Hz(par.from_unit(*at), ev.parameters(lo));
+                const double f_hi = par.ringing_Hz(par.from_unit(*at), ev.parameters(hi));
+                if (std::abs(std::log(f_hi / f_lo)) > 0.05)
+                  moving.push_back(j);
+              }
+            // along each, 9 positions; over each pair, 7 x 7 (a line's bore
+            // and the oil column can both be far off)
+            for (std::size_t j : moving)
               for (int g = 0; g < 9; ++g)
                 {
                   auto u = b;
                   u[j]   = (g + 0.5) / 9.0;
                   try_point(u);
                 }
-            }
-        }
-      runs_of_the_model += o3.evaluations;
-      if (o3.best_u.empty())
-        return {};
-      std::vector<double> best = o3.best_u;
+            for (std::size_t a = 0; a < moving.size(); ++a)
+              for (std::size_t c = a + 1; c < moving.size(); ++c)
+                for (int g = 0; g < 7; ++g)
+                  for (int h = 0; h < 7; ++h)
+                    {
+                      auto u        = b;
+                      u[moving[a]] = (g + 0.5) / 7.0;
+                      u[moving[c]] = (h + 0.5) / 7.0;
+                      try_point(u);
+                    }
+          };
+          for (const auto &b : bases)
+            valley(b);
+          runs_of_the_model += o3.evaluations;
+          if (o3.best_u.empty())
+            continue;
+          std::vector<double> best  = o3.best_u;
+          double              value = o3.best;
 
-      const auto scan = [&](double horizon, double ratio, int half_width) {
-        Evaluator s_ev      = ev;
-        s_ev.horizon_cycles = horizon;
-        Objective    o{&s_ev, 0, 0, 0, 1e300, {}};
-        const double centre = par.from_unit(best[0]);
-        for (int k = -half_width; k <= half_width; ++k)
-          {
-            const double v = centre * std::pow(ratio, k);
-            if (v < par.lower || v > par.upper)
-              continue;
-            std::vector<double> u = best;
-            u[0] = par.to_unit(v);
-            objective(dim, u.data(), nullptr, &o);
-          }
-        if (!o.best_u.empty())
-          best = o.best_u;
-        runs_of_the_model += o.evaluations;
-      };
-      scan(3.0, 1.02, 12);
-      scan(6.0, 1.005, 4);
-      return best;
+          const auto scan = [&](double horizon, double ratio, int half_width) {
+            Evaluator s_ev      = ev;
+            s_ev.horizon_cycles = horizon;
+            Objective    o{&s_ev, 0, 0, 0, 1e300, {}};
+            const double centre = par.from_unit(best[0]);
+            for (int k = -half_width; k <= half_width; ++k)
+              {
+                const double v = centre * std::pow(ratio, k);
+                if (v < par.lower || v > par.upper)
+                  continue;
+                std::vector<double> u = best;
+                u[0] = par.to_unit(v);
+                objective(dim, u.data(), nullptr, &o);
+              }
+            if (!o.best_u.empty())
+              {
+                best  = o.best_u;
+                value = o.best;
+              }
+            runs_of_the_model += o.evaluations;
+          };
+          scan(3.0, 1.02, 12);
+          scan(6.0, 1.005, 4);
+          found.push_back({value, best});
+        }
+      std::sort(found.begin(), found.end(), [](const Found &a, const Found &b) { return a.value < b.value; });
+      std::vector<std::vector<double>> starts;
+      for (const auto &f : found)
+        starts.push_back(f.u);
+      return starts;
     }
 
     /// Fits ev's candidate: from a coarse grid over the effect's first
@@ -470,7 +539,7 @@ namespace rectify::diagnosis
                 add_start(b, 0.5 / grid_points);
               }
           if (ringing)
-            if (const auto r = ringing_start(ev, short_runs); !r.empty())
+            for (const auto &r : ringing_start(ev, short_runs))
               {
                 add_start(r, fine_step(r));
                 grid.back().from_ringing = true;

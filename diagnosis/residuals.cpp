@@ -158,9 +158,17 @@ namespace rectify::diagnosis
   double dominant_frequency(const std::vector<double> &t, const std::vector<double> &v,
                             double f_low, double f_high)
   {
+    const auto peaks = spectral_peaks(t, v, f_low, f_high, 1);
+    return peaks.empty() ? 0.0 : peaks.front();
+  }
+
+  std::vector<double> spectral_peaks(const std::vector<double> &t, const std::vector<double> &v,
+                                     double f_low, double f_high, std::size_t count, double min_share,
+                                     double separation)
+  {
     const std::size_t n = v.size();
-    if (n < 16 || t.size() != n || !uniformly_sampled(t))
-      return 0.0;
+    if (n < 16 || t.size() != n || !uniformly_sampled(t) || count == 0)
+      return {};
     const double dt = (t.back() - t.front()) / static_cast<double>(n - 1);
     double mean = 0;
     for (double x : v)
@@ -175,20 +183,46 @@ namespace rectify::diagnosis
     Eigen::FFT<double>                fft;
     std::vector<std::complex<double>> X;
     fft.fwd(X, x);
-    const double df  = 1.0 / (static_cast<double>(m) * dt);
-    const auto   lo  = static_cast<std::size_t>(std::max(1.0, std::ceil(f_low / df)));
-    const auto   hi  = std::min(static_cast<std::size_t>(f_high / df), m / 2 - 1);
-    std::size_t  best = 0;
+    const double df = 1.0 / (static_cast<double>(m) * dt);
+    const auto   lo = static_cast<std::size_t>(std::max(1.0, std::ceil(f_low / df)));
+    const auto   hi = std::min(static_cast<std::size_t>(f_high / df), m / 2 - 1);
+    if (lo > hi)
+      return {};
+    // the bins in the band, largest first; a bin is a peak if no larger bin
+    // lies within the separation (a local maximum at that scale)
+    std::vector<std::size_t> bins;
     for (std::size_t k = lo; k <= hi; ++k)
-      if (best == 0 || std::abs(X[k]) > std::abs(X[best]))
-        best = k;
-    if (best == 0)
-      return 0.0;
-    const double a = std::log(std::abs(X[best - 1]) + 1e-300), b = std::log(std::abs(X[best]) + 1e-300),
-                 c = std::log(std::abs(X[best + 1]) + 1e-300);
-    const double denom = a - 2 * b + c;
-    const double shift = denom < 0 ? std::clamp(0.5 * (a - c) / denom, -0.5, 0.5) : 0.0;
-    return (static_cast<double>(best) + shift) * df;
+      bins.push_back(k);
+    std::sort(bins.begin(), bins.end(), [&](auto a, auto b) { return std::abs(X[a]) > std::abs(X[b]); });
+    const double largest = std::abs(X[bins.front()]);
+    if (!(largest > 0))
+      return {};
+    std::vector<std::size_t> found;
+    for (std::size_t k : bins)
+      {
+        if (found.size() == count || std::abs(X[k]) < min_share * largest)
+          break;
+        const bool apart = std::all_of(found.begin(), found.end(), [&](std::size_t j) {
+          return std::abs(std::log(static_cast<double>(k) / static_cast<double>(j))) > std::log1p(separation);
+        });
+        // after the largest, only local maxima inside the band (not the
+        // skirt of a larger peak, not a band edge)
+        const bool local = k > lo && k < hi && std::abs(X[k]) >= std::abs(X[k - 1]) &&
+                           std::abs(X[k]) >= std::abs(X[k + 1]);
+        if (apart && (found.empty() || local))
+          found.push_back(k);
+      }
+    std::vector<double> peaks;
+    for (std::size_t k : found)
+      {
+        // parabola through the log magnitudes about the bin
+        const double a = std::log(std::abs(X[k - 1]) + 1e-300), b = std::log(std::abs(X[k]) + 1e-300),
+                     c = std::log(std::abs(X[k + 1]) + 1e-300);
+        const double denom = a - 2 * b + c;
+        const double shift = denom < 0 ? std::clamp(0.5 * (a - c) / denom, -0.5, 0.5) : 0.0;
+        peaks.push_back((static_cast<double>(k) + shift) * df);
+      }
+    return peaks;
   }
 
   SquaredResidual squared_residual(const MeasuredRun &run, const Signals &model,

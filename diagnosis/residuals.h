@@ -41,6 +41,19 @@ namespace rectify::diagnosis
   double dominant_frequency(const std::vector<double> &times, const std::vector<double> &values,
                             double f_low_Hz, double f_high_Hz);
 
+  /// The frequencies [Hz] of up to `count` spectral peaks of uniformly
+  /// sampled values in [f_low, f_high], largest first (the first is
+  /// dominant_frequency's): local maxima of the magnitude at least
+  /// `min_share` of the largest, each more than `separation` (relative)
+  /// away from every larger one. A ringing line shows its lowest mode and
+  /// the ones above it; the largest need not be the lowest. A ringing
+  /// re-excited every pumping cycle also has sidebands one pumping
+  /// frequency apart, which can count as peaks. Empty when
+  /// dominant_frequency would give 0.
+  std::vector<double> spectral_peaks(const std::vector<double> &times, const std::vector<double> &values,
+                                     double f_low_Hz, double f_high_Hz, std::size_t count,
+                                     double min_share = 0.3, double separation = 0.15);
+
   /// The pumping cycle's phase in [0, 1) at the record's first sample: 0 at
   /// the drive's minimum (the fundamental's), 0.5 at its maximum. A record
   /// that starts mid-operation starts anywhere in the cycle; the

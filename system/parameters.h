@@ -131,13 +131,14 @@ namespace rectify::system
     /// (laminar), which also adds its resistance and oil (ModelConstants);
     /// 0 for none (the thesis neglects it).
     double outlet_inertance_Pa_s2_per_m3 = 0.0;
-    /// That added line as this many lumped pi sections in a chain (6, the
-    /// default: a distributed line that carries its waves, a 1.6 m line's
-    /// lowest frequency within 1.1 %; 1: one lumped section, which rings
-    /// 34 % low). Not a length-based count: a fit of L or of the bore would
+    /// That added line as this many lumped pi sections in a chain (12, the
+    /// default: a distributed line that carries its waves, its lowest
+    /// three modes within 0.3, 1.1 and 2.3 % of a continuous line's; 6
+    /// sections put the second 4 % low, which a bench's hose showed; 1: one
+    /// lumped section, whose lowest rings 34 % low). Not a length-based count: a fit of L or of the bore would
     /// jump where the count changes (docs/diagnosis.md, "A distributed
     /// outlet line").
-    long outlet_line_segments = 6;
+    long outlet_line_segments = 12;
     static LineParameters from_case(const CaseFile &file);
   };
 

@@ -13,8 +13,10 @@ diagnosis model makes others:
     penetration) instead of an event that stops the reed exactly;
   - R(x) of the thesis interpolated log-linearly in the opening (not a
     monotone cubic), closed-valve resistance blended over the first 0.2 um;
-  - the outlet line is distributed (4 segments with inertance, resistance
-    and its oil's compliance) instead of one lumped resistance;
+  - the outlet line is distributed (sections with inertance, resistance
+    and its oil's compliance, each section's oil at its upstream end: 4 for
+    the 1 cm manifold, one per 2 cm for a hose) instead of the model's pi
+    sections;
   - sensors: pressure transducers and the laser are first-order low-passes
     (random bandwidths), coloured (AR(1)) noise on top of white noise, a slow
     drift, a few outlier samples; the drive has a second harmonic
@@ -123,7 +125,11 @@ class Pump:
     """The bench's model. `effect` is one of EFFECTS or None, `value` its
     parameter; `P` the parameter dict (NOMINAL updated with the draws)."""
 
-    N_SEG = 4  # outlet-line segments
+    # outlet-line sections: at least 4 (the 1 cm manifold rings far above the
+    # pumping harmonics), and one per 2 cm of a hose, so that a hose's modes
+    # below 2 kHz are those of a continuous line within about 1 % (four
+    # sections put a 0.74 m hose's second mode 10 % low, its third 20 %)
+    MIN_SEG, SEG_LENGTH = 4, 0.02
 
     def __init__(self, P, scenario, effect=None, value=None, air_law="polytropic", drive=None, voltage=False):
         self.P, self.scenario, self.effect, self.value = P, scenario, effect, value
@@ -167,6 +173,8 @@ class Pump:
             self.L_out = value
             self.R_out *= scale
             self.V_line *= scale
+            l_out *= scale
+        self.N_SEG = max(self.MIN_SEG, math.ceil(l_out / self.SEG_LENGTH - 1e-9))
         self.A_port = p["A_r"]
         self.perimeter = 2 * math.sqrt(math.pi * p["A_r"])
         # state layout
