@@ -301,10 +301,11 @@ namespace rectify::diagnosis
     /// values), for each frequency of (1); (3) about each frequency's best,
     /// a scan of +-25 % in 2 % steps over the first 3 cycles, (4) then +-2 %
     /// in 0.5 % steps over the first 6. Returns the best point of (4) of
-    /// each frequency, best first (gain as in the start; the caller refines
-    /// each: over 6 cycles from rest a line's lowest mode set to ring at
-    /// its second mode's peak can score better than the right one), or
-    /// nothing when the residual shows no ringing in the parameter's range;
+    /// each frequency that beats the effect's weak end over those 6 cycles,
+    /// best first (gain as in the start; the caller refines each: over 6
+    /// cycles from rest a line's lowest mode set to ring at its second
+    /// mode's peak can score better than the right one), or nothing when
+    /// the residual shows no ringing in the parameter's range;
     /// counts its (short) runs of the model into runs_of_the_model.
     std::vector<std::vector<double>> ringing_start(const Evaluator &ev, int &runs_of_the_model)
     {
@@ -477,10 +478,24 @@ namespace rectify::diagnosis
           scan(6.0, 1.005, 4);
           found.push_back({value, best});
         }
+      // a start must beat the effect at its weak end ("no effect") over
+      // the same 6 cycles from the same bases: a peak of the noise's
+      // spectrum gives a ringing that only adds to the residual, and its
+      // refinement would cost hundreds of runs for nothing
+      Evaluator six_ev      = ev;
+      six_ev.horizon_cycles = 6.0;
+      Objective none6{&six_ev, 0, 0, 0, 1e300, {}};
+      for (auto b : bases)
+        {
+          b[0] = 0.0;
+          objective(dim, b.data(), nullptr, &none6);
+        }
+      runs_of_the_model += none6.evaluations;
       std::sort(found.begin(), found.end(), [](const Found &a, const Found &b) { return a.value < b.value; });
       std::vector<std::vector<double>> starts;
       for (const auto &f : found)
-        starts.push_back(f.u);
+        if (f.value < none6.best)
+          starts.push_back(f.u);
       return starts;
     }
 
