@@ -155,13 +155,6 @@ namespace rectify::diagnosis
     return std::sqrt(sum / static_cast<double>(period * (m - 3)));
   }
 
-  double dominant_frequency(const std::vector<double> &t, const std::vector<double> &v,
-                            double f_low, double f_high)
-  {
-    const auto peaks = spectral_peaks(t, v, f_low, f_high, 1);
-    return peaks.empty() ? 0.0 : peaks.front();
-  }
-
   std::vector<double> spectral_peaks(const std::vector<double> &t, const std::vector<double> &v,
                                      double f_low, double f_high, std::size_t count, double min_share,
                                      double separation)
@@ -188,8 +181,8 @@ namespace rectify::diagnosis
     const auto   hi = std::min(static_cast<std::size_t>(f_high / df), m / 2 - 1);
     if (lo > hi)
       return {};
-    // the bins in the band, largest first; a bin is a peak if no larger bin
-    // lies within the separation (a local maximum at that scale)
+    // the bins in the band, largest first; each is a peak if it is apart
+    // from the peaks found so far
     std::vector<std::size_t> bins;
     for (std::size_t k = lo; k <= hi; ++k)
       bins.push_back(k);

@@ -34,22 +34,16 @@ namespace rectify::diagnosis
   double cycle_scatter(const std::vector<double> &times, const std::vector<double> &values,
                        double frequency_Hz);
 
-  /// The frequency [Hz] of the largest spectral peak of uniformly sampled
-  /// values in [f_low, f_high] (Hann window, zero-padded to 8x, the peak
-  /// interpolated by a parabola through its log magnitudes): a ringing in a
-  /// residual. 0 if the record is too short or not uniformly sampled.
-  double dominant_frequency(const std::vector<double> &times, const std::vector<double> &values,
-                            double f_low_Hz, double f_high_Hz);
-
   /// The frequencies [Hz] of up to `count` spectral peaks of uniformly
-  /// sampled values in [f_low, f_high], largest first (the first is
-  /// dominant_frequency's): local maxima of the magnitude at least
-  /// `min_share` of the largest, each more than `separation` (relative)
-  /// away from every larger one. A ringing line shows its lowest mode and
+  /// sampled values in [f_low, f_high] (Hann window, zero-padded to 8x,
+  /// each peak interpolated by a parabola through its log magnitudes): a
+  /// ringing in a residual. Largest first: the largest bin, then local
+  /// maxima of the magnitude at least `min_share` of the largest, each
+  /// more than `separation` (relative) away from every peak already found. A ringing line shows its lowest mode and
   /// the ones above it; the largest need not be the lowest. A ringing
   /// re-excited every pumping cycle also has sidebands one pumping
-  /// frequency apart, which can count as peaks. Empty when
-  /// dominant_frequency would give 0.
+  /// frequency apart, which can count as peaks. Empty if the record is too
+  /// short or not uniformly sampled.
   std::vector<double> spectral_peaks(const std::vector<double> &times, const std::vector<double> &values,
                                      double f_low_Hz, double f_high_Hz, std::size_t count,
                                      double min_share = 0.3, double separation = 0.15);
