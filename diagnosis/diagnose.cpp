@@ -87,6 +87,8 @@ namespace rectify::diagnosis
       const std::vector<Signals>     *reference = nullptr;
       /// > 0: fit only this many pumping cycles from the start of each run.
       double                          horizon_cycles = 0;
+      /// Threads for a batch of independent evaluations (ringing_start's grids).
+      unsigned                        batch_threads = 1;
       /// Indices into base.uncertain fitted here; the others sit at `held`.
       std::vector<std::size_t>        free;
       std::vector<double>             held;  ///< per base.uncertain: its position when not free
@@ -98,7 +100,7 @@ namespace rectify::diagnosis
                             const DiagnoseOptions &options, unsigned run_threads,
                             const std::vector<Signals> *reference = nullptr)
       {
-        Evaluator ev{base, map, runs, effect, options, run_threads, reference, 0.0, {}, {}, {}};
+        Evaluator ev{base, map, runs, effect, options, run_threads, reference, 0.0, 1, {}, {}, {}};
         for (std::size_t j = 0; j < base.uncertain.size(); ++j)
           {
             const auto &q = base.uncertain[j];
@@ -251,6 +253,29 @@ namespace rectify::diagnosis
       return value;
     }
 
+    /// objective() at each point, up to `threads` at once, folded into o in
+    /// the points' order: o ends as if they had been evaluated one by one.
+    void evaluate_points(Objective &o, const std::vector<std::vector<double>> &points, unsigned threads)
+    {
+      std::vector<Objective> each(points.size(), Objective{o.evaluator, 0, 0, 0, 1e300, {}});
+      std::vector<double>    values(points.size());
+      parallel_for(points.size(), threads, [&](std::size_t i) {
+        auto u    = points[i];
+        values[i] = objective(static_cast<unsigned>(u.size()), u.data(), nullptr, &each[i]);
+      });
+      for (std::size_t i = 0; i < points.size(); ++i)
+        {
+          o.evaluations += each[i].evaluations;
+          o.failures += each[i].failures;
+          o.n = each[i].n ? each[i].n : o.n;
+          if (values[i] < o.best)
+            {
+              o.best   = values[i];
+              o.best_u = points[i];
+            }
+        }
+    }
+
     std::vector<Signals> simulate_all(const system::SystemParameters &p,
                                       const system::ValveMaps &map,
                                       const std::vector<RunCase> &runs, double rtol, unsigned threads = 1)
@@ -278,6 +303,19 @@ namespace rectify::diagnosis
           total.n += s.n;
         }
       return std::sqrt(total.sum / static_cast<double>(std::max<std::size_t>(total.n, 1)));
+    }
+
+    /// The band where `par` can put a ringing in run rc: what its bounds
+    /// allow (ringing_Hz decreases in the value), above 2.5 pumping
+    /// frequencies (the periodic response's own harmonics below) and below
+    /// 0.4 of the sampling rate.
+    std::pair<double, double> ringing_band(const EffectParameter &par, const system::SystemParameters &base,
+                                           const RunCase &rc)
+    {
+      const auto  &t  = rc.run.time_s;
+      const double fs = static_cast<double>(t.size() - 1) / (t.back() - t.front());
+      return {std::max(2.5 * rc.setup.frequency_Hz, par.ringing_Hz(par.upper, base)),
+              std::min(0.4 * fs, par.ringing_Hz(par.lower, base))};
     }
 
     /// A start for an effect whose first parameter sets a lightly damped
@@ -331,10 +369,7 @@ namespace rectify::diagnosis
               t[i]        = rc.run.time_s[i];
               residual[i] = data[i] - model[i];
             }
-          const double fs = static_cast<double>(rc.n_train - 1) / (t.back() - t.front());
-          // the ringing the parameter's bounds allow (decreasing in the value)
-          const double f_high = std::min(0.4 * fs, par.ringing_Hz(par.lower, ev.base));
-          const double f_low  = std::max(2.5 * rc.setup.frequency_Hz, par.ringing_Hz(par.upper, ev.base));
+          const auto [f_low, f_high] = ringing_band(par, ev.base, rc);
           if (!(f_low < f_high))
             continue;
           const auto found = spectral_peaks(t, residual, f_low, f_high, 3);
@@ -383,8 +418,7 @@ namespace rectify::diagnosis
         return 0.5 * (a + b);
       };
 
-      const unsigned dim = static_cast<unsigned>(ev.dimension());
-      Evaluator      short_ev = ev;
+      Evaluator short_ev = ev;
       short_ev.horizon_cycles = 3.0;
       std::vector<std::vector<double>> bases{ev.start_point()};
       if (const auto prior = ev.prior_point(); prior != bases[0])
@@ -398,12 +432,13 @@ namespace rectify::diagnosis
       for (const auto &cluster : clusters)
         {
           const double f_peak = cluster.f;
-          Objective    o3{&short_ev, 0, 0, 0, 1e300, {}};
-          const auto   try_point = [&](std::vector<double> u) {
+          Objective                        o3{&short_ev, 0, 0, 0, 1e300, {}};
+          std::vector<std::vector<double>> points; // evaluated together below
+          const auto                       try_point = [&](std::vector<double> u) {
             if (const auto at = ringing_at(u, f_peak))
               {
                 u[0] = *at;
-                objective(dim, u.data(), nullptr, &o3);
+                points.push_back(std::move(u));
               }
           };
           const auto valley = [&](const std::vector<double> &b) {
@@ -447,6 +482,7 @@ namespace rectify::diagnosis
           };
           for (const auto &b : bases)
             valley(b);
+          evaluate_points(o3, points, ev.batch_threads);
           runs_of_the_model += o3.evaluations;
           if (o3.best_u.empty())
             continue;
@@ -458,15 +494,16 @@ namespace rectify::diagnosis
             s_ev.horizon_cycles = horizon;
             Objective    o{&s_ev, 0, 0, 0, 1e300, {}};
             const double centre = par.from_unit(best[0]);
+            std::vector<std::vector<double>> along;
             for (int k = -half_width; k <= half_width; ++k)
               {
                 const double v = centre * std::pow(ratio, k);
                 if (v < par.lower || v > par.upper)
                   continue;
-                std::vector<double> u = best;
-                u[0] = par.to_unit(v);
-                objective(dim, u.data(), nullptr, &o);
+                along.push_back(best);
+                along.back()[0] = par.to_unit(v);
               }
+            evaluate_points(o, along, ev.batch_threads);
             if (!o.best_u.empty())
               {
                 best  = o.best_u;
@@ -485,11 +522,9 @@ namespace rectify::diagnosis
       Evaluator six_ev      = ev;
       six_ev.horizon_cycles = 6.0;
       Objective none6{&six_ev, 0, 0, 0, 1e300, {}};
-      for (auto b : bases)
-        {
-          b[0] = 0.0;
-          objective(dim, b.data(), nullptr, &none6);
-        }
+      for (auto &b : bases)
+        b[0] = 0.0;
+      evaluate_points(none6, bases, ev.batch_threads);
       runs_of_the_model += none6.evaluations;
       std::sort(found.begin(), found.end(), [](const Found &a, const Found &b) { return a.value < b.value; });
       std::vector<std::vector<double>> starts;
@@ -1294,12 +1329,22 @@ namespace rectify::diagnosis
             fitted[0].evaluations += before;
           }
         report(fitted[0]);
-        parallel_for(todo.size() - 1, cores, [&](std::size_t j) {
-          const std::size_t i  = j + 1;
+        // the candidates with a ringing search first: the longest fits
+        // (hundreds of short runs, batched on every core) start while the
+        // others share what is left
+        std::vector<std::size_t> schedule;
+        for (std::size_t i = 1; i < todo.size(); ++i)
+          schedule.push_back(i);
+        std::stable_partition(schedule.begin(), schedule.end(), [&](std::size_t i) {
+          return todo[i] && todo[i]->parameters()[0].ringing_Hz;
+        });
+        parallel_for(schedule.size(), cores, [&](std::size_t j) {
+          const std::size_t i  = schedule[j];
           Evaluator         ev = baseline_ev;
           ev.effect            = todo[i];
           ev.run_threads       = 1;
           ev.reference         = &current;
+          ev.batch_threads     = cores;
           fitted[i]            = fit(ev, predictions[i]);
           report(fitted[i]);
         });
