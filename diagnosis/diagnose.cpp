@@ -6,7 +6,9 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <mutex>
+#include <numeric>
 #include <optional>
 #include <thread>
 
@@ -255,7 +257,8 @@ namespace rectify::diagnosis
 
     /// objective() at each point, up to `threads` at once, folded into o in
     /// the points' order: o ends as if they had been evaluated one by one.
-    void evaluate_points(Objective &o, const std::vector<std::vector<double>> &points, unsigned threads)
+    std::vector<double> evaluate_points(Objective &o, const std::vector<std::vector<double>> &points,
+                                        unsigned threads)
     {
       std::vector<Objective> each(points.size(), Objective{o.evaluator, 0, 0, 0, 1e300, {}});
       std::vector<double>    values(points.size());
@@ -274,6 +277,51 @@ namespace rectify::diagnosis
               o.best_u = points[i];
             }
         }
+      return values;
+    }
+
+    /// A local search along a valley of constant ringing: BOBYQA over the
+    /// baseline and the gain (u[1..]) with the effect's first parameter
+    /// set, at each step, to the value that rings at f there; f itself
+    /// within +-10 % of f_peak (u[0] of the search). Along the baseline a
+    /// fixed parameter would cross the comb of basins that its ringing's
+    /// phase makes; at a fixed frequency the objective is smooth there.
+    /// Evaluations go into `o` (in the parameter's own coordinates).
+    struct Valley
+    {
+      Objective                                                                      *o;
+      std::function<std::optional<double>(const std::vector<double> &, double)>        at;
+      double                                                                          f_peak;
+    };
+
+    double valley_objective(unsigned n, const double *x, double *, void *data)
+    {
+      const auto         *v = static_cast<Valley *>(data);
+      std::vector<double> u(x, x + n);
+      const auto          a = v->at(u, v->f_peak * std::exp(0.1 * (2.0 * x[0] - 1.0)));
+      if (!a)
+        return 1e6; // no value of the parameter rings there: as a failed run
+      u[0] = *a;
+      return objective(n, u.data(), nullptr, v->o);
+    }
+
+    void valley_search(Valley valley, std::vector<double> from, int max_evaluations)
+    {
+      const auto dim = static_cast<unsigned>(from.size());
+      from[0]        = 0.5; // f_peak, where `from` rings
+      nlopt_opt opt  = nlopt_create(dim >= 2 ? NLOPT_LN_BOBYQA : NLOPT_LN_COBYLA, dim);
+      std::vector<double> lo(dim, 0.0), hi(dim, 1.0), step(dim, 0.05);
+      step[0] = 0.02; // 0.4 % of the frequency
+      nlopt_set_lower_bounds(opt, lo.data());
+      nlopt_set_upper_bounds(opt, hi.data());
+      nlopt_set_initial_step(opt, step.data());
+      nlopt_set_min_objective(opt, valley_objective, &valley);
+      nlopt_set_xtol_abs1(opt, 1e-3);
+      nlopt_set_ftol_rel(opt, 1e-4);
+      nlopt_set_maxeval(opt, max_evaluations);
+      double f = 0;
+      nlopt_optimize(opt, from.data(), &f);
+      nlopt_destroy(opt);
     }
 
     std::vector<Signals> simulate_all(const system::SystemParameters &p,
@@ -336,7 +384,9 @@ namespace rectify::diagnosis
     /// and the oil column can both be far off), each with the value that
     /// rings at that frequency there, compared over the first 3 cycles of
     /// each run (the baseline as its fit left it, and at the case's
-    /// values), for each frequency of (1); (3) about each frequency's best,
+    /// values), for each frequency of (1), and from the two best of them a
+    /// search along the valley (valley_search: the grid's steps can miss
+    /// the baseline's basin); (3) about each frequency's best,
     /// a scan of +-25 % in 2 % steps over the first 3 cycles, (4) then +-2 %
     /// in 0.5 % steps over the first 6. Returns the best point of (4) of
     /// each frequency that beats the effect's weak end over those 6 cycles,
@@ -482,10 +532,30 @@ namespace rectify::diagnosis
           };
           for (const auto &b : bases)
             valley(b);
-          evaluate_points(o3, points, ev.batch_threads);
+          const auto values = evaluate_points(o3, points, ev.batch_threads);
           runs_of_the_model += o3.evaluations;
           if (o3.best_u.empty())
             continue;
+          // (2b) from the grid's two best points, a search along the valley
+          // (the grid's steps are a factor 1.8 in a 60-fold range: the
+          // line's oil column can sit between them), both at once
+          std::vector<std::size_t> order(points.size());
+          std::iota(order.begin(), order.end(), 0);
+          std::sort(order.begin(), order.end(), [&](auto a, auto b) { return values[a] < values[b]; });
+          std::vector<Objective> local(std::min<std::size_t>(2, order.size()),
+                                       Objective{&short_ev, 0, 0, 0, 1e300, {}});
+          parallel_for(local.size(), ev.batch_threads, [&](std::size_t k) {
+            valley_search({&local[k], ringing_at, f_peak}, points[order[k]], 60);
+          });
+          for (const auto &o : local)
+            {
+              runs_of_the_model += o.evaluations;
+              if (o.best < o3.best)
+                {
+                  o3.best   = o.best;
+                  o3.best_u = o.best_u;
+                }
+            }
           std::vector<double> best  = o3.best_u;
           double              value = o3.best;
 
