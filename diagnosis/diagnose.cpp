@@ -289,9 +289,10 @@ namespace rectify::diagnosis
     /// Evaluations go into `o` (in the parameter's own coordinates).
     struct Valley
     {
-      Objective                                                                      *o;
-      std::function<std::optional<double>(const std::vector<double> &, double)>        at;
-      double                                                                          f_peak;
+      Objective *o;
+      /// the parameter's position that rings at a frequency with the rest at u
+      std::function<std::optional<double>(const std::vector<double> &u, double f)> at;
+      double f_peak;
     };
 
     double valley_objective(unsigned n, const double *x, double *, void *data)
@@ -1406,7 +1407,7 @@ namespace rectify::diagnosis
         for (std::size_t i = 1; i < todo.size(); ++i)
           schedule.push_back(i);
         std::stable_partition(schedule.begin(), schedule.end(), [&](std::size_t i) {
-          return todo[i] && todo[i]->parameters()[0].ringing_Hz;
+          return todo[i] && !todo[i]->parameters().empty() && todo[i]->parameters()[0].ringing_Hz;
         });
         parallel_for(schedule.size(), cores, [&](std::size_t j) {
           const std::size_t i  = schedule[j];

@@ -12,15 +12,21 @@
 # study's line_inertance-0, a 0.74 m hose on the outlet (3.14e7 Pa s^2/m^3 in
 # the bench's 37 sections; its bore and the oil column drawn away from the
 # case's), a record from rest at 100 Hz: named, L within 20 %, at most 2
-# noise units left. Form `mid-start`: the study's valve_leakage_turbulent-0 (a
+# noise units left. Form `line-short`: the study's line_inertance-2, a 0.32 m
+# hose (2.95e7 Pa s^2/m^3 in 17 sections; the oil column a third of the
+# case's, the bore 4.03 mm for 4.57) at 150 Hz from rest, whose line basin
+# the grid along the valley of constant ringing missed: named, L within
+# 20 %; its start-up leaves more than 2 noise units, so the verdict must say
+# "partly explained" there, and what it explains must pass the naming rule
+# (half the gap). Form `mid-start`: the study's valve_leakage_turbulent-0 (a
 # turbulent leak of 1.0e-7 m^2 in a record from mid-operation at 100 Hz),
 # whose start every start scores alike with the case's baseline: the start
 # is chosen again with the named leak, and what remains is within 2 noise
 # units.
-#   tests/foreign_bench.sh RECTIFY SOURCE_DIR SCRATCH_DIR [laminar|turbulent|line|mid-start]
+#   tests/foreign_bench.sh RECTIFY SOURCE_DIR SCRATCH_DIR [laminar|turbulent|line|line-short|mid-start]
 set -euo pipefail
 rectify=$1 src=$2 out=$3 form=${4:-laminar}
-max_residual=1e9
+max_residual=1e9 min_explained=0.8
 at_100Hz=(--scenario no-flow --frequency 100)
 case "$form" in
   laminar) effect=valve_leakage key=leak_resistance_Pa_s_per_m3
@@ -29,6 +35,8 @@ case "$form" in
     record_args=(--value 6e-8 --seed 4242 --start mid --cycles 12 "${at_100Hz[@]}") ;;
   line) effect=line_inertance key=outlet_inertance_Pa_s2_per_m3
     max_residual=2 record_args=(--seed 14152 --cycles 16) ;; # the study's line_inertance-0, as study.py makes it
+  line-short) effect=line_inertance key=outlet_inertance_Pa_s2_per_m3 min_explained=0.5
+    record_args=(--seed 14184 --cycles 16) ;; # the study's line_inertance-2
   mid-start) effect=valve_leakage_turbulent key=leak_area_m2 max_residual=2
     record_args=(--seed 33522 --cycles 16) ;; # the study's draws, as study.py makes them: no-flow, 100 Hz, mid
   *) echo "unknown form '$form'" >&2; exit 2 ;;
@@ -39,10 +47,10 @@ rm -rf "$out" && mkdir -p "$out"
 "$py" "$src/bench/foreign/make_record.py" --effect "$effect" "${record_args[@]}" --out "$out/record"
 "$rectify" diagnose --data "$out/record/data.csv" --out "$out/d" > "$out/diagnose.log" 2>&1 ||
   { cat "$out/diagnose.log"; exit 1; }
-"$py" - "$out" "$effect" "$key" "$max_residual" <<'PY'
+"$py" - "$out" "$effect" "$key" "$max_residual" "$min_explained" <<'PY'
 import json, sys
 out, effect, key = sys.argv[1:4]
-max_residual = float(sys.argv[4])
+max_residual, min_explained = float(sys.argv[4]), float(sys.argv[5])
 s = json.load(open(f"{out}/d/summary.json"))
 t = json.load(open(f"{out}/record/truth.json"))
 v = s["parameters"].get(key)
@@ -52,7 +60,9 @@ for c in s.get("candidates", []):
     if isinstance(c, dict) and c.get("effect", "").startswith(effect[:12]):
         print("candidate", c.get("effect"), "BIC", c.get("bic"), c.get("parameters"))
 ok = s["effect"] == effect and v is not None and abs(v / t["value"] - 1) < 0.2
-ok = ok and s["verdict"] in ("explained", "partly explained") and s["explained_fraction"] > 0.8
+ok = ok and s["verdict"] in ("explained", "partly explained") and s["explained_fraction"] > min_explained
+if s["residual_after"]["overall"] > 2:  # the verdict says what is left
+    ok = ok and s["verdict"] == "partly explained"
 if t["start"] != "rest":  # a record from mid-operation is not simulated from rest
     ok = ok and s["localisation"][0]["start"] != "rest"
 print("residual after", s["residual_after"]["overall"], "noise units (at most", max_residual, ")")
