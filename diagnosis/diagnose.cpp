@@ -255,6 +255,28 @@ namespace rectify::diagnosis
       return value;
     }
 
+    /// A local minimisation over [0, 1]^n from x (left at the result, its
+    /// value in *value): BOBYQA, or COBYLA in one dimension (BOBYQA needs
+    /// two), with first steps `step` per coordinate.
+    nlopt_result minimise_in_unit_box(nlopt_func f, void *data, std::vector<double> &x,
+                                      const std::vector<double> &step, double xtol_abs, double ftol_rel,
+                                      int max_evaluations, double *value)
+    {
+      const auto          dim = static_cast<unsigned>(x.size());
+      nlopt_opt           opt = nlopt_create(dim >= 2 ? NLOPT_LN_BOBYQA : NLOPT_LN_COBYLA, dim);
+      std::vector<double> lo(dim, 0.0), hi(dim, 1.0);
+      nlopt_set_lower_bounds(opt, lo.data());
+      nlopt_set_upper_bounds(opt, hi.data());
+      nlopt_set_initial_step(opt, step.data());
+      nlopt_set_min_objective(opt, f, data);
+      nlopt_set_xtol_abs1(opt, xtol_abs);
+      nlopt_set_ftol_rel(opt, ftol_rel);
+      nlopt_set_maxeval(opt, max_evaluations);
+      const nlopt_result status = nlopt_optimize(opt, x.data(), value);
+      nlopt_destroy(opt);
+      return status;
+    }
+
     /// objective() at each point, up to `threads` at once, folded into o in
     /// the points' order: o ends as if they had been evaluated one by one.
     std::vector<double> evaluate_points(Objective &o, const std::vector<std::vector<double>> &points,
@@ -308,21 +330,11 @@ namespace rectify::diagnosis
 
     void valley_search(Valley valley, std::vector<double> from, int max_evaluations)
     {
-      const auto dim = static_cast<unsigned>(from.size());
-      from[0]        = 0.5; // f_peak, where `from` rings
-      nlopt_opt opt  = nlopt_create(dim >= 2 ? NLOPT_LN_BOBYQA : NLOPT_LN_COBYLA, dim);
-      std::vector<double> lo(dim, 0.0), hi(dim, 1.0), step(dim, 0.05);
+      from[0] = 0.5; // f_peak, where `from` rings
+      std::vector<double> step(from.size(), 0.05);
       step[0] = 0.02; // 0.4 % of the frequency
-      nlopt_set_lower_bounds(opt, lo.data());
-      nlopt_set_upper_bounds(opt, hi.data());
-      nlopt_set_initial_step(opt, step.data());
-      nlopt_set_min_objective(opt, valley_objective, &valley);
-      nlopt_set_xtol_abs1(opt, 1e-3);
-      nlopt_set_ftol_rel(opt, 1e-4);
-      nlopt_set_maxeval(opt, max_evaluations);
       double f = 0;
-      nlopt_optimize(opt, from.data(), &f);
-      nlopt_destroy(opt);
+      minimise_in_unit_box(valley_objective, &valley, from, step, 1e-3, 1e-4, max_evaluations, &f);
     }
 
     std::vector<Signals> simulate_all(const system::SystemParameters &p,
@@ -690,20 +702,12 @@ namespace rectify::diagnosis
           for (int attempt = 0; attempt < 3; ++attempt)
             {
               std::vector<double> x = from;
-              nlopt_opt opt = nlopt_create(dim >= 2 ? NLOPT_LN_BOBYQA : NLOPT_LN_COBYLA, dim);
-              std::vector<double> lo(dim, 0.0), hi(dim, 1.0), step(dim, initial_step);
+              std::vector<double> step(dim, initial_step);
               for (std::size_t j = ev.n_effect(); j < dim; ++j) // the nuisance
                 step[j] = std::min(0.1, initial_step);
-              nlopt_set_lower_bounds(opt, lo.data());
-              nlopt_set_upper_bounds(opt, hi.data());
-              nlopt_set_initial_step(opt, step.data());
-              nlopt_set_min_objective(opt, objective, &o);
-              nlopt_set_xtol_abs1(opt, ringing ? 2e-5 : 2e-4);
-              nlopt_set_ftol_rel(opt, 1e-7);
-              nlopt_set_maxeval(opt, ev.options.max_evaluations + 10 * static_cast<int>(ev.free.size()));
               double f = 0;
-              status   = nlopt_optimize(opt, x.data(), &f);
-              nlopt_destroy(opt);
+              status   = minimise_in_unit_box(objective, &o, x, step, ringing ? 2e-5 : 2e-4, 1e-7,
+                                              ev.options.max_evaluations + 10 * static_cast<int>(ev.free.size()), &f);
               initial_step = ringing ? initial_step : 0.05;
               const bool gained = f < 0.99 * best_f;
               if (f < best_f)
