@@ -226,6 +226,20 @@ namespace rectify::diagnosis
       std::size_t      n           = 0;
       double           best        = 1e300;
       std::vector<double> best_u;
+
+      /// Adds a search's tally made with its own Objective (another thread's),
+      /// keeping the better best point.
+      void absorb(const Objective &part)
+      {
+        evaluations += part.evaluations;
+        failures += part.failures;
+        n = part.n ? part.n : n;
+        if (part.best < best)
+          {
+            best   = part.best;
+            best_u = part.best_u;
+          }
+      }
     };
 
     double objective(unsigned n, const double *x, double *, void *data)
@@ -687,38 +701,47 @@ namespace rectify::diagnosis
       // still gains 1 %: the objective is slightly rough at the integrator's
       // tolerance, which can stop a trust region early in a curved valley
       // (effect vs force gain).
-      nlopt_result status = NLOPT_SUCCESS;
       // (and from ringing_start's point wherever it ranks: its basin is narrow,
       // and a coarse grid point can be lower on a 16-cycle objective while
-      // lying in another basin)
-      const std::size_t starts = std::min<std::size_t>(grid.size(), ev.effect ? 2 : 1);
+      // lying in another basin). The searches are independent: they run
+      // ev.batch_threads at a time, each with its own tally, folded in
+      // order (the same best point as one after another).
+      const std::size_t        starts = std::min<std::size_t>(grid.size(), ev.effect ? 2 : 1);
+      std::vector<std::size_t> chosen;
       for (std::size_t start_i = 0; start_i < grid.size(); ++start_i)
-        {
-          if (start_i >= starts && !grid[start_i].from_ringing)
-            continue;
-          std::vector<double> from         = grid[start_i].u;
-          double              best_f       = grid[start_i].value;
-          double              initial_step = grid[start_i].step;
-          for (int attempt = 0; attempt < 3; ++attempt)
-            {
-              std::vector<double> x = from;
-              std::vector<double> step(dim, initial_step);
-              for (std::size_t j = ev.n_effect(); j < dim; ++j) // the nuisance
-                step[j] = std::min(0.1, initial_step);
-              double f = 0;
-              status   = minimise_in_unit_box(objective, &o, x, step, ringing ? 2e-5 : 2e-4, 1e-7,
-                                              ev.options.max_evaluations + 10 * static_cast<int>(ev.free.size()), &f);
-              initial_step = ringing ? initial_step : 0.05;
-              const bool gained = f < 0.99 * best_f;
-              if (f < best_f)
-                {
-                  best_f = f;
-                  from   = x;
-                }
-              if (!gained)
-                break;
-            }
-        }
+        if (start_i < starts || grid[start_i].from_ringing)
+          chosen.push_back(start_i);
+      std::vector<Objective>    searched(chosen.size(), Objective{&ev, 0, 0, 0, 1e300, {}});
+      std::vector<nlopt_result> statuses(chosen.size(), NLOPT_SUCCESS);
+      parallel_for(chosen.size(), ev.batch_threads, [&](std::size_t k) {
+        const Start        &s            = grid[chosen[k]];
+        std::vector<double> from         = s.u;
+        double              best_f       = s.value;
+        double              initial_step = s.step;
+        for (int attempt = 0; attempt < 3; ++attempt)
+          {
+            std::vector<double> x = from;
+            std::vector<double> step(dim, initial_step);
+            for (std::size_t j = ev.n_effect(); j < dim; ++j) // the nuisance
+              step[j] = std::min(0.1, initial_step);
+            double f    = 0;
+            statuses[k] = minimise_in_unit_box(objective, &searched[k], x, step, ringing ? 2e-5 : 2e-4, 1e-7,
+                                               ev.options.max_evaluations + 10 * static_cast<int>(ev.free.size()),
+                                               &f);
+            initial_step = ringing ? initial_step : 0.05;
+            const bool gained = f < 0.99 * best_f;
+            if (f < best_f)
+              {
+                best_f = f;
+                from   = x;
+              }
+            if (!gained)
+              break;
+          }
+      });
+      for (const auto &s : searched)
+        o.absorb(s);
+      const nlopt_result status = statuses.empty() ? NLOPT_SUCCESS : statuses.back();
       c.message = "NLopt status " + std::to_string(static_cast<int>(status));
       const std::vector<double> x = o.best_u; // the best point seen (grid or optimisers)
 

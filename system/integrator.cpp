@@ -45,48 +45,54 @@ namespace rectify::system
     }
     // A dense direct linear solver on Eigen's LU with partial pivoting. For
     // the model's 17 states it is about twice as fast as SUNDIALS' own dense
-    // solver as Debian builds it (the solve dominates a step's cost).
-    using SmallMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, 32, 32>;
-    using SmallVector = Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, 32, 1>;
+    // solver as Debian builds it (the solve dominates a step's cost); up to
+    // 32 states in fixed-capacity storage, above (a finely segmented outlet
+    // line: 46 states with twelve sections) on the heap, where SUNDIALS'
+    // solves had taken a quarter of a run's time (docs/benchmarks.md).
+    template <int Capacity>
     struct EigenDense
     {
-      Eigen::PartialPivLU<SmallMatrix> lu;
-      sunindextype                     last_flag = 0;
+      using Matrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, Capacity, Capacity>;
+      using Vector = Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, Capacity, 1>;
+      Eigen::PartialPivLU<Matrix> lu;
+      sunindextype                last_flag = 0;
+
+      static EigenDense *of(SUNLinearSolver s) { return static_cast<EigenDense *>(s->content); }
     };
 
-    EigenDense *content(SUNLinearSolver s) { return static_cast<EigenDense *>(s->content); }
-
+    template <int Capacity>
     SUNLinearSolver make_eigen_dense_solver(SUNContext context, sunindextype n)
     {
-      if (n > 32)
+      using Content = EigenDense<Capacity>;
+      if (Capacity != Eigen::Dynamic && n > Capacity)
         return nullptr;
       SUNLinearSolver s = SUNLinSolNewEmpty(context);
       if (!s)
         return nullptr;
-      s->content        = new EigenDense{};
+      s->content        = new Content{};
       s->ops->gettype   = [](SUNLinearSolver) { return SUNLINEARSOLVER_DIRECT; };
       s->ops->getid     = [](SUNLinearSolver) { return SUNLINEARSOLVER_CUSTOM; };
       s->ops->initialize = [](SUNLinearSolver) { return int(SUNLS_SUCCESS); };
       s->ops->setup     = [](SUNLinearSolver ls, SUNMatrix A) {
-        const auto                    n = SM_COLUMNS_D(A);
-        Eigen::Map<const SmallMatrix> M(SM_DATA_D(A), n, n);
-        content(ls)->lu.compute(M);
-        const double smallest = content(ls)->lu.matrixLU().diagonal().cwiseAbs().minCoeff();
-        content(ls)->last_flag = smallest > 0 ? 0 : 1;
+        const auto                                   n = SM_COLUMNS_D(A);
+        Eigen::Map<const typename Content::Matrix> M(SM_DATA_D(A), n, n);
+        Content::of(ls)->lu.compute(M);
+        const double smallest = Content::of(ls)->lu.matrixLU().diagonal().cwiseAbs().minCoeff();
+        Content::of(ls)->last_flag = smallest > 0 ? 0 : 1;
         return smallest > 0 ? int(SUNLS_SUCCESS) : int(SUNLS_LUFACT_FAIL);
       };
       s->ops->solve = [](SUNLinearSolver ls, SUNMatrix A, N_Vector x, N_Vector b, sunrealtype) {
-        const auto                    n = SM_COLUMNS_D(A);
-        Eigen::Map<const SmallVector> rhs(N_VGetArrayPointer(b), n);
-        Eigen::Map<SmallVector>       sol(N_VGetArrayPointer(x), n);
-        sol = content(ls)->lu.solve(rhs);
+        const auto                                   n = SM_COLUMNS_D(A);
+        Eigen::Map<const typename Content::Vector> rhs(N_VGetArrayPointer(b), n);
+        Eigen::Map<typename Content::Vector>       sol(N_VGetArrayPointer(x), n);
+        sol = Content::of(ls)->lu.solve(rhs);
         return int(SUNLS_SUCCESS);
       };
-      s->ops->lastflag = [](SUNLinearSolver ls) { return content(ls)->last_flag; };
+      s->ops->lastflag = [](SUNLinearSolver ls) { return Content::of(ls)->last_flag; };
       s->ops->free     = [](SUNLinearSolver ls) {
         if (ls == nullptr)
           return int(SUNLS_SUCCESS);
-        delete content(ls);
+        delete Content::of(ls);
         ls->content = nullptr;
         SUNLinSolFreeEmpty(ls);
         return int(SUNLS_SUCCESS);
@@ -201,9 +207,10 @@ namespace rectify::system
     check(CVodeSetUserData(m.cvode, &system), "CVodeSetUserData");
     check(CVodeSVtolerances(m.cvode, options.relative_tolerance, m.atol), "CVodeSVtolerances");
     m.matrix = SUNDenseMatrix(n, n, m.context);
-    // Up to 32 states (every model but a finely segmented outlet line) the
-    // fixed-capacity Eigen LU; above, SUNDIALS's own dense one.
-    m.solver = n <= 32 ? make_eigen_dense_solver(m.context, n) : SUNLinSol_Dense(m.y, m.matrix, m.context);
+    // Eigen's LU: fixed capacity up to 32 states (every model but a finely
+    // segmented outlet line), on the heap above
+    m.solver = n <= 32 ? make_eigen_dense_solver<32>(m.context, n) :
+                         make_eigen_dense_solver<Eigen::Dynamic>(m.context, n);
     if (!m.matrix || !m.solver)
       throw std::runtime_error("CVODE: cannot allocate the dense linear solver");
     check(CVodeSetLinearSolver(m.cvode, m.solver, m.matrix), "CVodeSetLinearSolver");
