@@ -302,17 +302,8 @@ namespace rectify::diagnosis
         auto u    = points[i];
         values[i] = objective(static_cast<unsigned>(u.size()), u.data(), nullptr, &each[i]);
       });
-      for (std::size_t i = 0; i < points.size(); ++i)
-        {
-          o.evaluations += each[i].evaluations;
-          o.failures += each[i].failures;
-          o.n = each[i].n ? each[i].n : o.n;
-          if (values[i] < o.best)
-            {
-              o.best   = values[i];
-              o.best_u = points[i];
-            }
-        }
+      for (const auto &e : each) // each one evaluation: its best is values[i] at points[i]
+        o.absorb(e);
       return values;
     }
 
@@ -577,11 +568,7 @@ namespace rectify::diagnosis
           for (const auto &o : local)
             {
               runs_of_the_model += o.evaluations;
-              if (o.best < o3.best)
-                {
-                  o3.best   = o.best;
-                  o3.best_u = o.best_u;
-                }
+              o3.absorb(o);
             }
           std::vector<double> best  = o3.best_u;
           double              value = o3.best;
