@@ -367,6 +367,8 @@ namespace rectify::app
         std::string md = "# rectify diagnose\n\nCase: `" + o.case_path + "`, scenario " + o.scenario + ".\n\n";
         md += "The reeds' second mode in the baseline: " + second_mode.text() + ".\n\n";
         md += "**Verdict: " + result.verdict + ".** " + result.verdict_sentence + ".\n\n";
+        if (!result.rounds.front().uncertainty_sentence.empty())
+          md += "Parameters: " + result.rounds.front().uncertainty_sentence + ".\n\n";
         md += "## The records\n\n| run | start | residual of each start (first 2 cycles, swing units; with the "
               "model that chose it) | "
               "settling samples left out | outliers replaced | compared |\n|---|---|---|---|---|---|\n";
@@ -421,6 +423,23 @@ namespace rectify::app
                 for (std::size_t i = 0; i < rr.values.size(); ++i)
                   md += "- " + e->parameters()[i].meaning + ": `" + e->parameters()[i].key + " = " + sci(rr.values[i]) +
                         "` (bounds " + sci(e->parameters()[i].lower) + " .. " + sci(e->parameters()[i].upper) + ")\n";
+                for (const auto &q : rr.uncertainty)
+                  md += "- `" + q.key + "`: standard error " +
+                        (std::isinf(q.relative_sd) ? std::string("more than ") + sci(100 * o.options.determined_relative_sd)
+                                                   : sci(100 * q.relative_sd)) +
+                        " % from its profile (held at " + sci(q.profile_value[0]) + " and " + sci(q.profile_value[1]) +
+                        " with the baseline refitted: training residual " + sci(q.profile_rms[0]) + " and " +
+                        sci(q.profile_rms[1]) + " noise units against the fit's " + sci(q.rms_at_fit) +
+                        "), one standard error " +
+                        (std::isnan(q.lower) ? "below " + sci(q.profile_value[0]) : sci(q.lower)) + " .. " +
+                        (std::isnan(q.upper) ? "above " + sci(q.profile_value[1]) : sci(q.upper)) + "; locally " +
+                        sci(100 * q.local_relative_sd) + " % (" + sci(100 * q.local_relative_sd_given_baseline) +
+                        " % with the baseline known), most correlated with `" + q.correlated_with + "` (" +
+                        sci(q.correlation) + ")" + (q.determined ? "" : ": **not determined by the record**") + "\n";
+                if (rr.combined)
+                  md += "- " + rr.combined->meaning + ": `" + rr.combined->name + " = " + sci(rr.combined->value) +
+                        "`, standard error " + sci(100 * rr.combined->relative_sd) + " %" +
+                        (rr.combined->determined ? "" : " (not determined either)") + "\n";
                 md += "- confidence (BIC weight): " + sci(rr.confidence) + "\n";
                 if (rr.refine_passes > 0)
                   md += "- refitted " + std::to_string(rr.refine_passes) +
@@ -472,6 +491,8 @@ namespace rectify::app
         std::printf(", then %s", result.rounds[k].effect.c_str());
       std::printf("\n%s\n", result.rounds.front().decision.c_str());
       std::printf("verdict: %s. %s\n", result.verdict.c_str(), result.verdict_sentence.c_str());
+      if (!result.rounds.front().uncertainty_sentence.empty())
+        std::printf("parameters: %s\n", result.rounds.front().uncertainty_sentence.c_str());
       for (const auto &rc : result.runs)
         std::printf("  %s: start %s, %zu outlier(s) replaced\n", rc.run.source.c_str(),
                     diagnosis::to_string(rc.start).c_str(), rc.outliers.size());
@@ -549,6 +570,12 @@ namespace rectify::app
       cmd->add_option("--identifiability-sd", o->options.identifiability_sd,
                       "a baseline parameter whose standard error exceeds this share of its range is held")
         ->check(CLI::Range(0.001, 1.0))
+        ->capture_default_str();
+      cmd->add_option("--determined-sd", o->options.determined_relative_sd,
+                      "the named effect's parameter is reported as determined when moving it this share either "
+                      "way (the baseline refitted) fits worse by the naming's evidence, and its standard error is "
+                      "at most this share")
+        ->check(CLI::Range(0.001, 2.0))
         ->capture_default_str();
       cmd->add_option("--beyond-library", o->options.beyond_library_noise_units,
                       "residual [noise units] above which the verdict says: model error beyond the library")

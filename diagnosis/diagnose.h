@@ -32,11 +32,13 @@
 // the residual is largest shrink by half); else "none".
 #pragma once
 
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -92,6 +94,10 @@ namespace rectify::diagnosis
     /// (log) range is reported and held at that fit's value, not traded
     /// against an effect.
     double              identifiability_sd = 0.15;
+    /// A named effect's parameter is reported as determined by the record
+    /// when its standard error (with the baseline's uncertain parameters
+    /// unknown within their ranges) is at most this share of its value.
+    double              determined_relative_sd = 0.2;
     /// A residual left above this many noise units after the fit means model
     /// error beyond the library (the verdict says so).
     double              beyond_library_noise_units = 2.0;
@@ -164,6 +170,50 @@ namespace rectify::diagnosis
     std::string         message;
   };
 
+  /// A named effect's parameter at its final fit and how well the record
+  /// determines it: the fit's covariance (J^T J / s2, s2 = SSR over the
+  /// band's independent values) with a uniform prior over each parameter's
+  /// range (diagnosis/uncertainty.h).
+  struct ParameterUncertainty
+  {
+    std::string key;
+    double      value = 0;
+    /// Standard error of ln(value) for a log-scaled parameter (about the
+    /// relative error while small), of value over |value| otherwise, from
+    /// its profile (below): the step over the square root of the evidence
+    /// against it, the larger side; infinite where a side fits as well.
+    double      relative_sd = 0;
+    /// One standard error either side, within the bounds; NaN where that
+    /// side of the profile fits as well (more than its step).
+    double      lower = 0, upper = 0;
+    /// The same from the fit's covariance (local): the baseline's
+    /// [uncertain] parameters and the force gain unknown within their
+    /// ranges, and known (at the fit).
+    double      local_relative_sd = 0, local_relative_sd_given_baseline = 0;
+    std::string correlated_with;                ///< the parameter it trades with most
+    double      correlation = 0;
+    /// Its profile: the parameter moved by determined_relative_sd down and up
+    /// (a factor exp(-+sd) when log-scaled) and held while the baseline's
+    /// [uncertain] parameters and the gain are refitted; each side's
+    /// training residual (noise units) and evidence against it, n_eff
+    /// ln(SSR ratio) (NaN: at a bound, not tried, or failed).
+    std::array<double, 2> profile_value{}, profile_rms{}, profile_evidence{};
+    double      rms_at_fit = 0;                 ///< the fit's own training residual, the same units
+    bool        profile_determined = true;      ///< every side tried: evidence > DiagnoseOptions::bic_threshold
+    /// profile_determined (where no side could be tried: local_relative_sd
+    /// <= DiagnoseOptions::determined_relative_sd)
+    bool        determined = true;
+  };
+
+  /// The named effect's combined quantity (Effect::Combination) at its fit.
+  struct CombinedEstimate
+  {
+    std::string name, meaning;
+    double      value = 0;
+    double      relative_sd = 0; ///< standard error over the value (delta method)
+    bool        determined = true;
+  };
+
   struct RoundResult
   {
     std::string                  effect = "none"; ///< named effect or "none"
@@ -179,6 +229,10 @@ namespace rectify::diagnosis
     bool                         signature_explained = false;
     std::string                  signature_detail;
     int                          refine_passes = 0; ///< refits with rescaled residuals
+    std::vector<ParameterUncertainty> uncertainty;  ///< per effect parameter, at the final fit
+    std::optional<CombinedEstimate>   combined;     ///< when the effect declares a combination
+    std::string                       uncertainty_sentence; ///< both in words
+    int                               uncertainty_runs = 0; ///< runs of the model they took
   };
 
   struct DiagnosisResult

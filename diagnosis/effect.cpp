@@ -26,13 +26,14 @@ namespace rectify::diagnosis
 
   Effect::Effect(std::string name, std::string physics, std::string signature,
                  std::vector<EffectParameter> parameters, Apply apply,
-                 std::vector<FixedKey> fixed_keys)
+                 std::vector<FixedKey> fixed_keys, Combination combination)
     : name_(std::move(name))
     , physics_(std::move(physics))
     , signature_(std::move(signature))
     , parameters_(std::move(parameters))
     , apply_(std::move(apply))
     , fixed_keys_(std::move(fixed_keys))
+    , combination_(std::move(combination))
   {}
 
   void Effect::apply(std::span<const double> values, system::SystemParameters &p) const

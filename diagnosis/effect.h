@@ -60,9 +60,21 @@ namespace rectify::diagnosis
       std::string table, key, value;
     };
 
+    /// A quantity a record can determine where the effect's parameter alone
+    /// is traded against a baseline parameter of the same physics: the
+    /// seal's compliance and the oil column's add up to the high side's.
+    /// The diagnosis reports it with its standard error beside the
+    /// parameter's (diagnose.h, CombinedEstimate).
+    struct Combination
+    {
+      std::string name;    ///< with its unit, e.g. "high_side_compliance_m3_per_Pa"
+      std::string meaning; ///< one line for reports
+      std::function<double(const system::SystemParameters &)> value;
+    };
+
     Effect(std::string name, std::string physics, std::string signature,
            std::vector<EffectParameter> parameters, Apply apply,
-           std::vector<FixedKey> fixed_keys = {});
+           std::vector<FixedKey> fixed_keys = {}, Combination combination = {});
     virtual ~Effect() = default;
 
     const std::string                  &name() const { return name_; }
@@ -73,6 +85,8 @@ namespace rectify::diagnosis
     const std::vector<EffectParameter> &parameters() const { return parameters_; }
     /// Keys set to fixed values besides the parameters (for the case file).
     const std::vector<FixedKey>        &fixed_keys() const { return fixed_keys_; }
+    /// The combined quantity, or null when the effect declares none.
+    const Combination *combination() const { return combination_.value ? &combination_ : nullptr; }
     /// Sets the effect's keys in `p` to `values` (one per parameter).
     void apply(std::span<const double> values, system::SystemParameters &p) const;
     /// Empty if the effect can show in runs like `traits`, else why not
@@ -84,6 +98,7 @@ namespace rectify::diagnosis
     std::vector<EffectParameter> parameters_;
     Apply                        apply_;
     std::vector<FixedKey>        fixed_keys_;
+    Combination                  combination_;
   };
 
   /// Every effect of the library, in report order ("none" is not one of them).

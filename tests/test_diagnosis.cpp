@@ -647,6 +647,14 @@ TEST(Diagnosis, SoftSealIsRecoveredAfterRescalingTheResidualWithTheFittedModel)
                                "outlet_compliance");
   ASSERT_EQ(s["effect"], "outlet_compliance") << s["decision"];
   EXPECT_NEAR(s["parameters"]["seal_compliance_m3_per_Pa"].get<double>(), 4.076e-11, 0.1 * 4.076e-11);
+  // determined (20 % either way with the baseline refitted fits worse), and
+  // its standard error from that profile covers the true value
+  const auto &u = s["parameter_uncertainty"][0];
+  EXPECT_TRUE(u["determined"].get<bool>()) << u.dump(1);
+  EXPECT_GT(u["profile"]["evidence_against"][0].get<double>(), 10.0) << u.dump(1);
+  EXPECT_GT(u["profile"]["evidence_against"][1].get<double>(), 10.0) << u.dump(1);
+  EXPECT_LT(std::abs(std::log(u["value"].get<double>() / 4.076e-11)), 3 * u["relative_standard_error"].get<double>())
+    << u.dump(1);
   EXPECT_GE(s["rounds"][0]["refits_with_rescaled_residuals"].get<int>(), 1);
   EXPECT_LT(s["residual_after"]["overall"].get<double>(), 1.5); // at the noise, every signal
   for (const auto &[signal, value] : s["residual_after"].items())

@@ -20,6 +20,7 @@
 #include "diagnosis/measured_run.h"
 #include "diagnosis/observation.h"
 #include "diagnosis/residuals.h"
+#include "diagnosis/uncertainty.h"
 #include "system/integrator.h"
 #include "system/parameters.h"
 #include "system/simulation.h"
@@ -47,6 +48,29 @@ namespace
         run.signals["outlet_pressure_Pa"].push_back(signal(t));
       }
     return run;
+  }
+
+  /// DIR/rig.toml: the reference case with each `from` text replaced by
+  /// its `to` (a rig whose baseline differs from the case's), beside the
+  /// case's resistance table. Fails the test if a `from` is not there.
+  std::filesystem::path write_rig(const std::filesystem::path                           &dir,
+                                  const std::vector<std::pair<std::string, std::string>> &changes)
+  {
+    std::string text = reference_text();
+    for (const auto &[from, to] : changes)
+      {
+        const auto at = text.find(from);
+        EXPECT_NE(at, std::string::npos) << from;
+        if (at != std::string::npos)
+          text.replace(at, from.size(), to);
+      }
+    {
+      std::ofstream out(dir / "rig.toml");
+      out << text;
+    }
+    std::filesystem::copy_file(reference_case_path().parent_path() / "thesis-resistance.csv",
+                               dir / "thesis-resistance.csv", std::filesystem::copy_options::overwrite_existing);
+    return dir / "rig.toml";
   }
 } // namespace
 
@@ -362,18 +386,9 @@ TEST(ForeignData, ARecordFromMidOperationStartsFromItsPeriodicState)
 // verdict is "no missing effect" where the uncalibrated model was far off.
 TEST(ForeignData, AnUncertainBaselineIsCalibratedNotMistakenForAnEffect)
 {
-  const auto  dir  = scratch("foreign_baseline");
-  std::string text = reference_text();
-  const auto  at   = text.find("wetted_length_m = 0.0254");
-  ASSERT_NE(at, std::string::npos);
-  text.replace(at, std::string("wetted_length_m = 0.0254").size(), "wetted_length_m = 0.061");
-  {
-    std::ofstream out(dir / "rig.toml");
-    out << text;
-  }
-  std::filesystem::copy_file(reference_case_path().parent_path() / "thesis-resistance.csv",
-                             dir / "thesis-resistance.csv");
-  auto r = rectify_cli("synth --case " + (dir / "rig.toml").string() +
+  const auto dir = scratch("foreign_baseline");
+  const auto rig = write_rig(dir, {{"wetted_length_m = 0.0254", "wetted_length_m = 0.061"}});
+  auto r = rectify_cli("synth --case " + rig.string() +
                        " --effect none --noise 0.01 --seed 5 --frequency 100 --cycles 12 --out " +
                        (dir / "data").string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
@@ -406,22 +421,10 @@ TEST(ForeignData, AnUncertainBaselineIsCalibratedNotMistakenForAnEffect)
 // 0.14 against the limit 0.15): the test asserts the mechanism.
 TEST(ForeignData, ABaselineParameterHeldWithoutTheEffectIsFreedWhereTheEffectsFitDeterminesIt)
 {
-  const auto  dir  = scratch("foreign_freed");
-  std::string text = reference_text();
-  for (const auto &[from, to] : {std::pair<std::string, std::string>{"diameter_m = 4.572e-3", "diameter_m = 5.6e-3"},
-                                 {"gas_volume_m3 = 1.6387e-5", "gas_volume_m3 = 3.0e-5"}})
-    {
-      const auto at = text.find(from);
-      ASSERT_NE(at, std::string::npos) << from;
-      text.replace(at, from.size(), to);
-    }
-  {
-    std::ofstream out(dir / "rig.toml");
-    out << text;
-  }
-  std::filesystem::copy_file(reference_case_path().parent_path() / "thesis-resistance.csv",
-                             dir / "thesis-resistance.csv");
-  auto r = rectify_cli("synth --case " + (dir / "rig.toml").string() +
+  const auto dir = scratch("foreign_freed");
+  const auto rig_case = write_rig(dir, {{"diameter_m = 4.572e-3", "diameter_m = 5.6e-3"},
+                                        {"gas_volume_m3 = 1.6387e-5", "gas_volume_m3 = 3.0e-5"}});
+  auto r = rectify_cli("synth --case " + rig_case.string() +
                        " --effect valve_leakage --param leak_resistance_Pa_s_per_m3=1e11 --noise 0.01 --seed 7 "
                        "--frequency 150 --cycles 12 --out " + (dir / "data").string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
@@ -450,7 +453,103 @@ TEST(ForeignData, ABaselineParameterHeldWithoutTheEffectIsFreedWhereTheEffectsFi
     }
   EXPECT_NEAR(s["baseline"]["lines.diameter_m"].get<double>(), 5.6e-3, 0.03 * 5.6e-3);
   EXPECT_NEAR(s["parameters"]["leak_resistance_Pa_s_per_m3"].get<double>(), 1e11, 0.03 * 1e11);
+  // determined, and its reported standard error (from its profile) covers the rig's value
+  const auto &u = s["parameter_uncertainty"][0];
+  EXPECT_TRUE(u["determined"].get<bool>()) << u.dump(1);
+  EXPECT_LT(std::abs(std::log(u["value"].get<double>() / 1e11)), 3 * u["relative_standard_error"].get<double>())
+    << u.dump(1);
   EXPECT_LT(s["residual_after"]["overall"].get<double>(), 1.5);
+}
+
+// The covariance against closed forms: two parameters with one column of
+// information each, J = [a, a] (only their sum is seen), s2 and a uniform
+// prior (precision 12) on both. With A = a.a / s2 the information is
+// [[A + 12, A], [A, A + 12]]: each one's variance (A + 12) / (24 A + 144)
+// stays near the prior's half (1/24) however many data there are, their
+// sum's is 1 / (A + 6), and one given the other is 1 / (A + 12).
+TEST(Uncertainty, ACollinearPairDeterminesItsSumNotItsSplit)
+{
+  std::mt19937                     rng(5);
+  std::normal_distribution<double> normal;
+  for (const int n : {3, 50, 2000})
+    {
+      Eigen::VectorXd a(n);
+      for (int i = 0; i < n; ++i)
+        a(i) = normal(rng);
+      const double    s2 = 0.37;
+      Eigen::MatrixXd J(n, 2);
+      J << a, a;
+      const Eigen::MatrixXd F = fit_information(J, s2, Eigen::Vector2d::Constant(uniform_prior_precision));
+      const Eigen::MatrixXd C = covariance(F);
+      const double          A = a.squaredNorm() / s2;
+      EXPECT_NEAR(C(0, 0), (A + 12) / (24 * A + 144), 1e-12 * C(0, 0)) << n;
+      EXPECT_NEAR(C(1, 1), C(0, 0), 1e-12 * C(0, 0)) << n;
+      EXPECT_NEAR(C(0, 1), -A / (24 * A + 144), 1e-12 * C(0, 0)) << n;
+      EXPECT_NEAR(propagated_variance(C, Eigen::Vector2d(1, 1)), 1 / (A + 6), 1e-9 / (A + 6)) << n;
+      EXPECT_NEAR(covariance(F.topLeftCorner(1, 1))(0, 0), 1 / (A + 12), 1e-12 / (A + 12)) << n;
+    }
+  // independent columns, no prior: the textbook s2 (J^T J)^-1
+  Eigen::MatrixXd J(3, 2);
+  J << 1, 0, 0, 2, 0, 0;
+  const Eigen::MatrixXd C = covariance(fit_information(J, 2.0, Eigen::Vector2d::Zero()));
+  EXPECT_NEAR(C(0, 0), 2.0, 1e-12);
+  EXPECT_NEAR(C(1, 1), 0.5, 1e-12);
+  EXPECT_NEAR(C(0, 1), 0.0, 1e-12);
+  // no data and no prior in a direction: infinite variance there only
+  J << 1, 0, 1, 0, 1, 0;
+  const Eigen::MatrixXd D = covariance(fit_information(J, 1.0, Eigen::Vector2d::Zero()));
+  EXPECT_NEAR(D(0, 0), 1.0 / 3.0, 1e-12);
+  EXPECT_TRUE(std::isinf(D(1, 1)));
+  EXPECT_THROW(fit_information(J, 0.0, Eigen::Vector2d::Zero()), std::invalid_argument);
+  EXPECT_THROW(fit_information(J, 1.0, Eigen::Vector3d::Zero()), std::invalid_argument);
+}
+
+// A soft seal beside an oil column of uncertain length (the study's
+// outlet_compliance-1): the two compliances add, so a record tells their
+// sum and not the split. Rig: oil column 0.1 m (the case says 0.0254), seal
+// 8e-14 m^3/Pa, more than the longest oil column of the case's range could
+// hold, so the baseline alone cannot explain it. The report must say the
+// seal is not determined, that it trades with the oil column, and give the
+// high side's compliance, determined, at the rig's.
+TEST(ForeignData, ASealTradedAgainstTheOilColumnIsReportedAsUndeterminedWithTheirSum)
+{
+  const auto   dir  = scratch("foreign_seal_split");
+  const auto   rig_case = write_rig(dir, {{"wetted_length_m = 0.0254", "wetted_length_m = 0.1"}});
+  const double seal     = 8e-14;
+  auto r = rectify_cli("synth --case " + rig_case.string() +
+                       " --effect outlet_compliance --param seal_compliance_m3_per_Pa=8e-14 --noise 0.01 --seed 11 "
+                       "--frequency 150 --cycles 12 --out " + (dir / "data").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto s = diagnose_summary(dir / "data" / "data.csv", "--effects outlet_compliance --reed-second-mode case",
+                                  dir / "d");
+  ASSERT_FALSE(s.is_null());
+  ASSERT_EQ(s["effect"], "outlet_compliance") << s["decision"];
+  // the rig's high side: the oil column (area x high-side share x length /
+  // bulk modulus, the case's numbers) and the seal
+  const double oil  = 1.29032e-4 * 0.5 * 0.1 / 586.054e6;
+  const double rig  = oil + seal;
+  const auto  &p    = s["parameter_uncertainty"];
+  ASSERT_EQ(p.size(), 1u) << s.dump(1);
+  EXPECT_FALSE(p[0]["determined"].get<bool>()) << p.dump(1);
+  EXPECT_EQ(p[0]["most_correlated_with"], "cylinder.wetted_length_m") << p.dump(1);
+  EXPECT_LT(p[0]["correlation"].get<double>(), -0.5) << p.dump(1);
+  // known, the baseline would pin it: the trade is what makes it uncertain
+  EXPECT_LT(p[0]["local_relative_standard_error_given_baseline"].get<double>(), 0.05) << p.dump(1);
+  EXPECT_TRUE(p[0]["relative_standard_error"].is_null()) << p.dump(1); // more than 20 %: a side fits as well
+  // its profile: 20 % lower with a longer oil column fits as well (higher
+  // needs a column shorter than the case's range allows)
+  const auto &profile = p[0]["profile"];
+  EXPECT_FALSE(profile["determined"].get<bool>()) << profile.dump(1);
+  EXPECT_LT(profile["evidence_against"][0].get<double>(), 10.0) << profile.dump(1);
+  EXPECT_NEAR(profile["values"][0].get<double>(), p[0]["value"].get<double>() * std::exp(-0.2),
+              1e-6 * p[0]["value"].get<double>());
+  const auto &c = s["combined"];
+  ASSERT_TRUE(c.is_object()) << s.dump(1);
+  EXPECT_EQ(c["quantity"], "high_side_compliance_m3_per_Pa");
+  EXPECT_TRUE(c["determined"].get<bool>()) << c.dump(1);
+  EXPECT_LT(c["relative_standard_error"].get<double>(), 0.05) << c.dump(1);
+  EXPECT_NEAR(c["value"].get<double>(), rig, 0.05 * rig) << c.dump(1);
+  EXPECT_NE(s["uncertainty_sentence"].get<std::string>().find("not determined"), std::string::npos);
 }
 
 // When the library has nothing that fits (a hidden leak, candidates that

@@ -38,7 +38,8 @@ FORMS = {"entrained_air": "polytropic", "entrained_air_constant_modulus": "const
          "valve_leakage": "laminar", "valve_leakage_turbulent": "turbulent"}
 COLUMNS = ["case", "truth", "scenario", "frequency_Hz", "start", "named", "correct", "verdict", "true_value",
            "fitted_value", "rel_error", "air_law", "named_form", "residual_baseline", "residual_after",
-           "explained_fraction", "outliers_true", "outliers_found", "start_chosen", "wall_time_s"]
+           "explained_fraction", "outliers_true", "outliers_found", "start_chosen", "wall_time_s",
+           "reported_sd", "determined", "combined_true", "combined_fitted", "combined_error"]
 lock = threading.Lock()
 
 
@@ -112,6 +113,20 @@ def run_case(args, name, effect):
             row["fitted_value"] = v
             row["rel_error"] = abs(v / truth["value"] - 1)
         row["named_form"] = FORMS.get(named, "")
+        # the parameter's standard error as reported, and whether the record determines it
+        for q in s.get("parameter_uncertainty", []):
+            if q["parameter"] == key:  # null: a side of its profile fits as well (more than 20 %)
+                sd = q["relative_standard_error"]
+                row["reported_sd"] = "inf" if sd is None else sd
+                row["determined"] = int(q["determined"])
+        # the seal and the oil column add up: the bench's high side against the reported sum
+        c = s.get("combined")
+        if effect == "outlet_compliance" and c and truth.get("value"):
+            b = truth["baseline"]
+            oil = b["A_po"] * bench.NOMINAL["xi_h"] * b["wet_l"] / bench.NOMINAL["beta"]
+            row["combined_true"] = oil + truth["value"]
+            row["combined_fitted"] = c["value"]
+            row["combined_error"] = abs(c["value"] / row["combined_true"] - 1)
     return row
 
 
@@ -124,8 +139,8 @@ def report(args):
           f"{len(rows)} records, written by bench/foreign/study.py; rectify diagnose as a user runs it "
           "(reference case with its [uncertain] table, all candidates).", "",
           "| hidden \\ named | " + " | ".join(named_cols) + " | correct | parameter within 20 % | median error | "
-          "residual after <= 2 noise | verdicts |",
-          "|---|" + "---|" * (len(named_cols) + 5)]
+          "reported undetermined (its sum within 20 %) | residual after <= 2 noise | verdicts |",
+          "|---|" + "---|" * (len(named_cols) + 6)]
     for t in truths:
         rs = [r for r in rows if r["truth"] == t]
         counts = [sum(r["named"] == c for r in rs) for c in named_cols]
@@ -133,23 +148,33 @@ def report(args):
         errs = [float(r["rel_error"]) for r in rs if r["rel_error"] not in ("", None)]
         within = sum(e <= 0.2 for e in errs)
         med = f"{100 * sorted(errs)[len(errs) // 2]:.1f} %" if errs else "-"
+        undetermined = [r for r in rs if r.get("determined") == "0"]
+        sums = sum(float(r["combined_error"]) <= 0.2 for r in undetermined if r.get("combined_error"))
+        und = f"{len(undetermined)} ({sums})" if undetermined else "0"
         ok_res = [r for r in rs if int(r["correct"]) and t in LIBRARY]
         res2 = sum(float(r["residual_after"]) <= 2.0 for r in ok_res)
         verdicts = {}
         for r in rs:
             verdicts[r["verdict"]] = verdicts.get(r["verdict"], 0) + 1
         md.append(f"| {t} | " + " | ".join(str(c) for c in counts) +
-                  f" | {correct}/{len(rs)} | {within}/{len(errs) if errs else 0} | {med} | "
+                  f" | {correct}/{len(rs)} | {within}/{len(errs) if errs else 0} | {med} | {und} | "
                   f"{(str(res2) + '/' + str(len(ok_res))) if t in LIBRARY else '-'} | " +
                   ", ".join(f"{k}: {v}" for k, v in sorted(verdicts.items())) + " |")
     times = sorted(float(r["wall_time_s"]) for r in rows)
     if times:
         md += ["", f"Time per record (diagnose, {args.threads} threads): median {times[len(times) // 2]:.0f} s, "
                f"max {times[-1]:.0f} s."]
-    md += ["", "Per record:", "", "| case | hidden | scenario | f [Hz] | start (bench / chosen) | named | verdict | "
-           "true | fitted | error | residual baseline -> after | outliers (bench / found) |", "|---|" + "---|" * 11]
+    md += ["", "Per record (error: of the fitted parameter; +-: its standard error as reported, * where the "
+           "report says the record does not determine it):", "",
+           "| case | hidden | scenario | f [Hz] | start (bench / chosen) | named | verdict | "
+           "true | fitted | error (+-) | residual baseline -> after | outliers (bench / found) |", "|---|" + "---|" * 11]
     for r in rows:
         err = f"{100 * float(r['rel_error']):.1f} %" if r["rel_error"] not in ("", None) else "-"
+        star = "*" if r.get("determined") == "0" else ""
+        if r.get("reported_sd") not in ("", None) and math.isfinite(float(r["reported_sd"])):
+            err += f" (+-{100 * float(r['reported_sd']):.2g} %{star})"
+        elif star:  # more than 20 %: a side of its profile fits as well
+            err += " (+- > 20 %*)"
         md.append(f"| {r['case']} | {r['truth']} | {r['scenario']} | {float(r['frequency_Hz']):g} | "
                   f"{r['start']} / {r['start_chosen']} | {r['named']} | {r['verdict']} | {r['true_value'][:9]} | "
                   f"{str(r['fitted_value'])[:9]} | {err} | {float(r['residual_baseline'] or 0):.3g} -> "
@@ -185,6 +210,17 @@ def main():
         report(args)
         return
     path = os.path.join(args.out, "cases.csv")
+    if os.path.exists(path):  # written by an older study.py: its rows under today's columns
+        with open(path) as fh:
+            reader = csv.DictReader(fh)
+            old, header = list(reader), reader.fieldnames
+        if header != COLUMNS:
+            with open(path + ".tmp", "w", newline="") as fh:
+                w = csv.DictWriter(fh, fieldnames=COLUMNS)
+                w.writeheader()
+                for r in old:
+                    w.writerow({k: r.get(k, "") for k in COLUMNS})
+            os.replace(path + ".tmp", path)
     done = {r["case"] for r in csv.DictReader(open(path))} if os.path.exists(path) else set()
     todo = [c for c in plan(args) if c[0] not in done]
     print(f"{len(done)} records done, {len(todo)} to go", flush=True)

@@ -17,6 +17,17 @@ namespace rectify::diagnosis
                                     "extra high-side compliance", 12}},
       [](std::span<const double> v, system::SystemParameters &p) {
         p.cylinder.seal_compliance_m3_per_Pa = v[0];
-      });
+      },
+      std::vector<Effect::FixedKey>{},
+      // The seal sits in parallel with the high side's oil column, whose
+      // length is one of the baseline's uncertain parameters: a record
+      // tells their sum, not always the split.
+      Effect::Combination{"high_side_compliance_m3_per_Pa",
+                          "the high side's compliance: the oil column's (cylinder.wetted_length_m) and the seal's",
+                          [](const system::SystemParameters &p) {
+                            return p.cylinder.piston_area_m2 * p.cylinder.high_side_fraction *
+                                     p.cylinder.wetted_length_m / p.fluid.effective_bulk_modulus_Pa() +
+                                   p.cylinder.seal_compliance_m3_per_Pa;
+                          }});
   }
 } // namespace rectify::diagnosis
