@@ -1301,6 +1301,20 @@ namespace rectify::diagnosis
       return freed;
     }
 
+    /// The training residual's sum of squares at x, or 1e300 where the
+    /// model fails to integrate (a scan point is then simply not chosen).
+    double training_or_worst(const Evaluator &ev, const std::vector<double> &x)
+    {
+      try
+        {
+          return ev.training(x).sum;
+        }
+      catch (const std::exception &)
+        {
+          return 1e300;
+        }
+    }
+
     /// A freed parameter starts at the case's value, which can lie far from
     /// its fit, along a valley too rough for a trust region's first steps:
     /// each is placed at the best of a 10-point scan over its range (the
@@ -1311,17 +1325,7 @@ namespace rectify::diagnosis
       Evaluator one = ev;
       if (threads > 1)
         one.run_threads = 1;
-      const auto score = [&](const std::vector<double> &x) {
-        try
-          {
-            const auto t = one.training(x);
-            return t.sum / static_cast<double>(std::max<std::size_t>(t.n, 1));
-          }
-        catch (const std::exception &)
-          {
-            return 1e300; // the model failed to integrate there
-          }
-      };
+      const auto score = [&](const std::vector<double> &x) { return training_or_worst(one, x); };
       for (const auto &b : freed)
         {
           const auto at = std::find_if(ev.free.begin(), ev.free.end(),
@@ -1454,17 +1458,7 @@ namespace rectify::diagnosis
                   partner = j - ne;
                 }
             }
-          const auto score = [&](const std::vector<double> &x) {
-            try
-              {
-                const auto t = profile.training(x);
-                return t.sum;
-              }
-            catch (const std::exception &)
-              {
-                return 1e300;
-              }
-          };
+          const auto score = [&](const std::vector<double> &x) { return training_or_worst(profile, x); };
           double best = score(from);
           ++s.runs;
           if (partner >= 0)
