@@ -378,14 +378,20 @@ namespace rectify::system
     /// (turbulent_leak_flow, K_L) - in series with a line of resistance
     /// R_s: the flow for the drop dp across all. u + R_s q(u) = dp is
     /// increasing in u: Newton, bracketed by 0 and dp.
+    /// A valve (R q + K q|q| = u) and its leak paths side by side, a
+    /// laminar one (q = u / R_L; R_L = 0: none) and a turbulent orifice
+    /// (turbulent_leak_flow, K_L): their flow at the drop u, and dq/du.
+    std::pair<double, double> valve_and_leaks(double R, double K, double R_L, double K_L, double u)
+    {
+      const double G_L      = R_L > 0 ? 1.0 / R_L : 0.0;
+      const auto [qv, gv]   = branch_flow(R, K, u);
+      const auto [qt, gt]   = turbulent_leak_flow(K_L, u);
+      return {qv + G_L * u + qt, gv + G_L + gt};
+    }
+
     LeakyBranch leaky_branch_flow(double R, double K, double R_L, double K_L, double R_s, double dp)
     {
-      const double G_L  = R_L > 0 ? 1.0 / R_L : 0.0;
-      const auto   pair = [&](double u) {
-        const auto [qv, gv] = branch_flow(R, K, u);
-        const auto [qt, gt] = turbulent_leak_flow(K_L, u);
-        return std::pair{qv + G_L * u + qt, gv + G_L + gt};
-      };
+      const auto pair = [&](double u) { return valve_and_leaks(R, K, R_L, K_L, u); };
       double u = dp;
       if (R_s > 0 && dp != 0.0)
         {
@@ -515,20 +521,52 @@ namespace rectify::system
       }
     else
       f.q_outlet = f.q_line = outlet_branch(c_.R3, p_ch - p_h);
-    // the inlet branch, junction -> chamber: flow and its derivative
-    const auto inlet_branch = [&](double dp) {
-      dp += s2;
-      if (!quadratic_leak)
-        return branch_flow(f.R2 + c_.R4, K2, dp);
-      const auto b = leaky_branch_flow(f.R2, K2, c_.R_leak, c_.K_leak, c_.R4, dp);
-      u_inlet      = b.u;
-      return std::pair{b.q, b.dq};
-    };
+    // the inlet branch without a turbulent leak, junction -> chamber: flow and its derivative
+    const auto inlet_branch = [&](double dp) { return branch_flow(f.R2 + c_.R4, K2, dp + s2); };
     if (K2 == 0.0 && !quadratic_leak)
       {
         const double g24 = 1.0 / (f.R2 + c_.R4);
         f.p_junction     = (g24 * (p_ch - s2) + g5 * p_acc + g6 * p_l) / (g24 + g5 + g6);
         f.q_inlet        = g24 * (f.p_junction - p_ch + s2);
+      }
+    else if (quadratic_leak)
+      {
+        // One equation in the drop u across the inlet valve and its leaks,
+        // q = Q(u) through them: the branch gives the junction's pressure,
+        // p_a = p_ch - s2 + u + R4 Q(u), and Kirchhoff there,
+        // g5 (p_a - p_acc) + g6 (p_a - p_l) + Q(u) = 0, becomes
+        //   F(u) = G u + (1 + G R4) Q(u) + c0 = 0,  G = g5 + g6,
+        //   c0 = g5 (p_ch - s2 - p_acc) + g6 (p_ch - s2 - p_l),
+        // increasing in u, its root between 0 and -c0 / G (Q has u's sign):
+        // Newton, bracketed (one solve, not one per step of an outer one).
+        const double G  = g5 + g6;
+        const double c0 = g5 * (p_ch - s2 - p_acc) + g6 * (p_ch - s2 - p_l);
+        const auto   Q  = [&](double u) { return valve_and_leaks(f.R2, K2, c_.R_leak, c_.K_leak, u); };
+        double       u  = 0.0;
+        if (c0 != 0.0)
+          {
+            const double end = -c0 / G;
+            double       lo = std::min(0.0, end), hi = std::max(0.0, end);
+            u = end / (1.0 + (1.0 + G * c_.R4) * Q(0.0).second / G); // the linearised guess
+            for (int it = 0; it < 100; ++it)
+              {
+                const auto [q, dq] = Q(u);
+                const double F     = G * u + (1.0 + G * c_.R4) * q + c0;
+                if (F == 0.0)
+                  break;
+                (F > 0 ? hi : lo) = u;
+                double next       = u - F / (G + (1.0 + G * c_.R4) * dq);
+                if (!(next > lo && next < hi))
+                  next = 0.5 * (lo + hi);
+                const bool done = std::abs(next - u) <= 1e-14 * std::abs(end) || hi - lo <= 1e-14 * std::abs(end);
+                u               = next;
+                if (done)
+                  break;
+              }
+          }
+        u_inlet      = u;
+        f.q_inlet    = Q(u).first;
+        f.p_junction = p_ch - s2 + u + c_.R4 * f.q_inlet;
       }
     else
       { // Kirchhoff at the junction, g5 (p_a - p_acc) + g6 (p_a - p_l) + q_in(p_a - p_ch) = 0,
@@ -552,7 +590,7 @@ namespace rectify::system
             p_a = next;
           }
         f.p_junction = p_a;
-        f.q_inlet    = inlet_branch(p_a - p_ch).first; // and u_inlet at p_a
+        f.q_inlet    = inlet_branch(p_a - p_ch).first;
       }
     f.q_accumulator = g5 * (f.p_junction - p_acc);
     f.q_low         = g6 * (f.p_junction - p_l);
