@@ -4,11 +4,7 @@
 #include <complex>
 #include <numbers>
 #include <random>
-#include <fftw3.h>
-#include <map>
-#include <mutex>
-#include <stdexcept>
-#include <string>
+#include <unsupported/Eigen/FFT>
 
 #include "common/case_file.h"
 #include "diagnosis/fourier.h"
@@ -65,61 +61,27 @@ namespace rectify::diagnosis
 
   namespace
   {
-    /// FFTW's DCT-I (REDFT00) of length n, X_k = v_0 + (-1)^k v_{n-1} +
-    /// 2 sum_{0<i<n-1} v_i cos(pi k i / (n - 1)): the DFT of the record's
-    /// even extension (length m = 2 (n - 1)), in O(n log n) whatever n's
-    /// prime factors (Eigen's kissfft takes O(p) per sample for a prime
-    /// factor p; 3200 samples: m = 2 x 7 x 457). It is its own inverse up to
-    /// the factor m. One plan per length, made under a lock (FFTW's planner
-    /// is not thread-safe; executing a plan on other arrays is, and
-    /// FFTW_UNALIGNED lets those be any std::vector's).
-    class CosineTransform
-    {
-    public:
-      explicit CosineTransform(std::size_t n)
-        : in_(n)
-        , out_(n)
-      {
-        static std::mutex                       planner;
-        static std::map<std::size_t, fftw_plan> plans; // a handful of lengths, for the program's life
-        std::lock_guard                         lock(planner);
-        auto                                    it = plans.find(n);
-        if (it == plans.end())
-          it = plans
-                 .emplace(n, fftw_plan_r2r_1d(static_cast<int>(n), in_.data(), out_.data(), FFTW_REDFT00,
-                                              FFTW_ESTIMATE | FFTW_UNALIGNED))
-                 .first;
-        if (!it->second)
-          throw std::runtime_error("FFTW: no plan for a cosine transform of length " + std::to_string(n));
-        plan_ = it->second;
-      }
-
-      std::vector<double>       &input() { return in_; }
-      const std::vector<double> &output() const { return out_; }
-      void                       run() { fftw_execute_r2r(plan_, in_.data(), out_.data()); }
-
-    private:
-      std::vector<double> in_, out_;
-      fftw_plan           plan_;
-    };
-
     /// The record's cosine series, filtered: the DFT of its even extension
     /// (length m = 2 (n - 1): real, no wrap-around jump), each term k in
-    /// [0, n) kept where keep(k, m, |X_k|) (the term m - k is its mirror),
-    /// transformed back to n values.
+    /// [0, m) kept where keep(k, m, |X_k|), transformed back to n values.
     template <typename Keep>
     std::vector<double> filter_cosine_series(const std::vector<double> &v, const Keep &keep)
     {
-      const std::size_t n = v.size(), m = 2 * (n - 1);
-      CosineTransform   dct(n);
-      dct.input() = v;
-      dct.run();
-      for (std::size_t k = 0; k < n; ++k)
-        dct.input()[k] = keep(k, m, std::abs(dct.output()[k])) ? dct.output()[k] : 0.0;
-      dct.run();
-      std::vector<double> back(n);
+      const std::size_t   n = v.size(), m = 2 * (n - 1);
+      std::vector<double> y(m);
       for (std::size_t i = 0; i < n; ++i)
-        back[i] = dct.output()[i] / static_cast<double>(m);
+        y[i] = v[i];
+      for (std::size_t i = 1; i + 1 < n; ++i)
+        y[m - i] = v[i];
+      Eigen::FFT<double>                fft;
+      std::vector<std::complex<double>> spectrum;
+      fft.fwd(spectrum, y);
+      for (std::size_t k = 0; k < spectrum.size(); ++k)
+        if (!keep(k, m, std::abs(spectrum[k])))
+          spectrum[k] = 0.0;
+      std::vector<double> back;
+      fft.inv(back, spectrum);
+      back.resize(n);
       return back;
     }
   } // namespace
@@ -137,6 +99,64 @@ namespace rectify::diagnosis
     return filter_cosine_series(v, [&](std::size_t k, std::size_t, double a) { return k == 0 || a >= threshold; });
   }
 
+  namespace
+  {
+    /// Roughly what one length-m FFT costs per sample: the sum of m's prime
+    /// factors (Eigen's kissfft handles a prime factor p in O(p) per sample).
+    std::size_t fft_cost_per_sample(std::size_t m)
+    {
+      std::size_t cost = 0;
+      for (std::size_t p = 2; p * p <= m; ++p)
+        while (m % p == 0)
+          {
+            cost += p;
+            m /= p;
+          }
+      return m > 1 ? cost + m : cost;
+    }
+
+    /// filter_cosine_series keeping the terms k = 0..K (and their mirrors),
+    /// summed directly: the cosine coefficients X_k = v_0 + (-1)^k v_{n-1} +
+    /// 2 sum_{0<i<n-1} v_i cos(pi k i / (n-1)) and back
+    /// y_i = (X_0 + 2 sum_{k=1..K} X_k cos(pi k i / (n-1))) / m, m = 2 (n - 1), K < n - 1.
+    std::vector<double> low_cosine_terms(const std::vector<double> &v, std::size_t K)
+    {
+      const std::size_t   n = v.size(), m = 2 * (n - 1);
+      std::vector<double> c(m);
+      for (std::size_t j = 0; j < m; ++j)
+        c[j] = std::cos(std::numbers::pi * static_cast<double>(j) / static_cast<double>(n - 1));
+      std::vector<double> X(K + 1);
+      for (std::size_t k = 0; k <= K; ++k)
+        {
+          double      sum = v[0];
+          std::size_t j   = 0; // k i mod m
+          for (std::size_t i = 1; i < n; ++i)
+            {
+              j += k;
+              if (j >= m)
+                j -= m;
+              sum += (i + 1 < n ? 2.0 : 1.0) * v[i] * c[j];
+            }
+          X[k] = sum;
+        }
+      std::vector<double> y(n);
+      for (std::size_t i = 0; i < n; ++i)
+        {
+          double      sum = X[0];
+          std::size_t j   = 0; // k i mod m
+          for (std::size_t k = 1; k <= K; ++k)
+            {
+              j += i;
+              if (j >= m)
+                j -= m;
+              sum += 2.0 * X[k] * c[j];
+            }
+          y[i] = sum / static_cast<double>(m);
+        }
+      return y;
+    }
+  } // namespace
+
   std::vector<double> band_limit(const std::vector<double> &t, const std::vector<double> &v, double cutoff_Hz)
   {
     const std::size_t n = v.size();
@@ -145,9 +165,17 @@ namespace rectify::diagnosis
     const double dt = (t.back() - t.front()) / static_cast<double>(n - 1);
     if (cutoff_Hz * dt >= 0.5)
       return v;
-    const double df = 1.0 / (2.0 * static_cast<double>(n - 1) * dt); // the cosine series' step
-    return filter_cosine_series(v, [&](std::size_t k, std::size_t, double) {
-      return static_cast<double>(k) * df <= cutoff_Hz;
+    const double df = 1.0 / (2.0 * static_cast<double>(n - 1) * dt);
+    // the terms kept: k df <= cutoff, k < n - 1 (the cutoff is below Nyquist)
+    std::size_t K = 0;
+    while (K + 2 < n && static_cast<double>(K + 1) * df <= cutoff_Hz)
+      ++K;
+    // a record whose length has a large prime factor makes the FFT slow
+    // (2400 samples: m = 2 x 2399, a prime): a few low terms are cheaper summed
+    if (K + 1 <= fft_cost_per_sample(2 * (n - 1)))
+      return low_cosine_terms(v, K);
+    return filter_cosine_series(v, [&](std::size_t k, std::size_t m, double) {
+      return static_cast<double>(std::min(k, m - k)) * df <= cutoff_Hz;
     });
   }
 

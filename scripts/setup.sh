@@ -16,7 +16,6 @@ packages=(
   libcgal-dev            # CGAL: planar meshing, surface checks (mesher)
   openmpi-bin            # mpirun: the flow solver in parallel
   libnlopt-dev           # NLopt: the diagnosis workflow's bounded fits (BOBYQA)
-  libfftw3-dev           # FFTW: the diagnosis's band limit (a DCT of any length)
   libgtest-dev           # tests
   gnuplot-nox            # plots (PNG and SVG)
   python3                # scripts/chapter5_numbers.py (the reference run's comparison table)
