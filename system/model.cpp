@@ -378,6 +378,30 @@ namespace rectify::system
     /// (turbulent_leak_flow, K_L) - in series with a line of resistance
     /// R_s: the flow for the drop dp across all. u + R_s q(u) = dp is
     /// increasing in u: Newton, bracketed by 0 and dp.
+    /// The root of an increasing function in [lo, hi] (negative at lo,
+    /// positive at hi) by Newton from u, bisecting where a step would leave
+    /// the bracket; stops when a step or the bracket is within tol.
+    /// value_and_slope(u) gives {F(u), F'(u)}.
+    template <typename ValueAndSlope>
+    double bracketed_newton(const ValueAndSlope &value_and_slope, double u, double lo, double hi, double tol)
+    {
+      for (int it = 0; it < 100; ++it)
+        {
+          const auto [F, dF] = value_and_slope(u);
+          if (F == 0.0)
+            break;
+          (F > 0 ? hi : lo) = u;
+          double next       = u - F / dF;
+          if (!(next > lo && next < hi))
+            next = 0.5 * (lo + hi);
+          const bool done = std::abs(next - u) <= tol || hi - lo <= tol;
+          u               = next;
+          if (done)
+            break;
+        }
+      return u;
+    }
+
     /// A valve (R q + K q|q| = u) and its leak paths side by side, a
     /// laminar one (q = u / R_L; R_L = 0: none) and a turbulent orifice
     /// (turbulent_leak_flow, K_L): their flow at the drop u, and dq/du.
@@ -395,23 +419,13 @@ namespace rectify::system
       double u = dp;
       if (R_s > 0 && dp != 0.0)
         {
-          double lo = std::min(0.0, dp), hi = std::max(0.0, dp);
-          u = dp / (1.0 + R_s * pair(0.0).second); // the linearised guess
-          for (int it = 0; it < 100; ++it)
-            {
-              const auto [q, g] = pair(u);
-              const double F    = u + R_s * q - dp;
-              if (F == 0.0)
-                break;
-              (F > 0 ? hi : lo) = u;
-              double next       = u - F / (1.0 + R_s * g);
-              if (!(next > lo && next < hi))
-                next = 0.5 * (lo + hi);
-              const bool done = std::abs(next - u) <= 1e-14 * std::abs(dp) || hi - lo <= 1e-14 * std::abs(dp);
-              u               = next;
-              if (done)
-                break;
-            }
+          const double guess = dp / (1.0 + R_s * pair(0.0).second); // the linearised guess
+          u = bracketed_newton(
+            [&](double v) {
+              const auto [q, g] = pair(v);
+              return std::pair{v + R_s * q - dp, 1.0 + R_s * g};
+            },
+            guess, std::min(0.0, dp), std::max(0.0, dp), 1e-14 * std::abs(dp));
         }
       const auto [q, g] = pair(u);
       return {q, g / (1.0 + R_s * g), u};
@@ -546,23 +560,14 @@ namespace rectify::system
         if (c0 != 0.0)
           {
             const double end = -c0 / G;
-            double       lo = std::min(0.0, end), hi = std::max(0.0, end);
-            u = end / (1.0 + (1.0 + G * c_.R4) * Q(0.0).second / G); // the linearised guess
-            for (int it = 0; it < 100; ++it)
-              {
-                const auto [q, dq] = Q(u);
-                const double F     = G * u + (1.0 + G * c_.R4) * q + c0;
-                if (F == 0.0)
-                  break;
-                (F > 0 ? hi : lo) = u;
-                double next       = u - F / (G + (1.0 + G * c_.R4) * dq);
-                if (!(next > lo && next < hi))
-                  next = 0.5 * (lo + hi);
-                const bool done = std::abs(next - u) <= 1e-14 * std::abs(end) || hi - lo <= 1e-14 * std::abs(end);
-                u               = next;
-                if (done)
-                  break;
-              }
+            const double A   = 1.0 + G * c_.R4;
+            u                = bracketed_newton(
+              [&](double v) {
+                const auto [q, dq] = Q(v);
+                return std::pair{G * v + A * q + c0, G + A * dq};
+              },
+              end / (1.0 + A * Q(0.0).second / G), // the linearised guess
+              std::min(0.0, end), std::max(0.0, end), 1e-14 * std::abs(end));
           }
         u_inlet      = u;
         f.q_inlet    = Q(u).first;
