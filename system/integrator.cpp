@@ -1,6 +1,8 @@
 #include "system/integrator.h"
 
 #include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
 #include <cvode/cvode.h>
 #include <nvector/nvector_serial.h>
 #include <stdexcept>
@@ -19,28 +21,169 @@ namespace rectify::system
                                  CVodeGetReturnFlagName(flag));
     }
 
+    /// What CVODE's callbacks reach through user_data: the system and, for
+    /// the linear system formed here, CVODE's memory, the saved Jacobian and
+    /// the difference quotients' colouring.
+    struct Callbacks
+    {
+      OdeSystem      *system = nullptr;
+      void           *cvode  = nullptr;
+      bool            difference_quotients = false;
+      Eigen::MatrixXd J;                 ///< the Jacobian of the last evaluation
+      N_Vector        weights = nullptr; ///< CVODE's error weights, copied for each Jacobian
+      /// colours[c]: columns perturbed together; rows[j]: the components that read state j
+      std::vector<std::vector<std::size_t>> colours, rows;
+      std::vector<double>                   increments;
+      long                                  evaluations = 0; ///< f evaluations for Jacobians
+    };
+
+    OdeSystem &system_of(void *user) { return *static_cast<Callbacks *>(user)->system; }
+
     int rhs_callback(sunrealtype t, N_Vector y, N_Vector ydot, void *user)
     {
-      auto             *sys = static_cast<OdeSystem *>(user);
-      const std::size_t n   = sys->n_states();
-      sys->rhs(t, {N_VGetArrayPointer(y), n}, {N_VGetArrayPointer(ydot), n});
+      auto             &sys = system_of(user);
+      const std::size_t n   = sys.n_states();
+      sys.rhs(t, {N_VGetArrayPointer(y), n}, {N_VGetArrayPointer(ydot), n});
       return 0;
     }
 
     int jac_callback(sunrealtype t, N_Vector y, N_Vector, SUNMatrix J, void *user, N_Vector,
                      N_Vector, N_Vector)
     {
-      auto             *sys = static_cast<OdeSystem *>(user);
-      const std::size_t n   = sys->n_states();
+      auto             &sys = system_of(user);
+      const std::size_t n   = sys.n_states();
       SUNMatZero(J);
-      sys->jacobian(t, {N_VGetArrayPointer(y), n}, DenseView{SM_DATA_D(J), n});
+      sys.jacobian(t, {N_VGetArrayPointer(y), n}, DenseView{SM_DATA_D(J), n});
       return 0;
+    }
+
+    /// CVODE's dense difference-quotient Jacobian (cvLsDenseDQJac, SUNDIALS
+    /// 6.4), its increments and arithmetic unchanged, into cb.J, with the
+    /// columns of one colour perturbed in one evaluation of f: no component
+    /// reads two of them, so each of its entries is the quotient CVODE forms
+    /// alone. tmp1, tmp2: work vectors.
+    int difference_jacobian(Callbacks &cb, sunrealtype t, N_Vector y, N_Vector fy, N_Vector tmp1, N_Vector tmp2)
+    {
+      const std::size_t n = cb.system->n_states();
+      if (CVodeGetErrWeights(cb.cvode, cb.weights) < 0)
+        return -1;
+      // CVODE's step size while it sets up (after any rescaling): next_h
+      // equals h there (cvRescale, cvDoErrorTest)
+      sunrealtype h = 0;
+      if (CVodeGetCurrentStep(cb.cvode, &h) < 0)
+        return -1;
+      const sunrealtype uround = SUN_UNIT_ROUNDOFF;
+      const sunrealtype srur   = std::sqrt(uround);
+      const sunrealtype fnorm  = N_VWrmsNorm(fy, cb.weights);
+      const sunrealtype min_increment =
+        fnorm != 0.0 ? 1000.0 * std::abs(h) * uround * static_cast<sunrealtype>(n) * fnorm : 1.0;
+      const double *ewt = N_VGetArrayPointer(cb.weights);
+      const double *f0  = N_VGetArrayPointer(fy);
+      const double *f   = N_VGetArrayPointer(tmp1);
+      const double *y0  = N_VGetArrayPointer(y);
+      N_VScale(1.0, y, tmp2);
+      double *yp = N_VGetArrayPointer(tmp2);
+      for (const auto &colour : cb.colours)
+        {
+          for (std::size_t j : colour)
+            {
+              cb.increments[j] = std::max(srur * std::abs(y0[j]), min_increment / ewt[j]);
+              yp[j] += cb.increments[j];
+            }
+          cb.system->rhs(t, {yp, n}, {N_VGetArrayPointer(tmp1), n});
+          ++cb.evaluations;
+          for (std::size_t j : colour)
+            {
+              yp[j]                = y0[j];
+              const double inverse = 1.0 / cb.increments[j];
+              for (std::size_t i : cb.rows[j])
+                cb.J(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = inverse * (f[i] - f0[i]);
+            }
+        }
+      return 0;
+    }
+
+    /// A = I - gamma J for CVODE's Newton iteration, J re-evaluated unless
+    /// CVODE finds the saved one good enough (jok): what CVODE's own
+    /// cvLsLinSys computes (zero, evaluate, save; or copy the saved one;
+    /// then scale and add I), entry for entry, in one pass over J.
+    int linear_system_callback(sunrealtype t, N_Vector y, N_Vector fy, SUNMatrix A, sunbooleantype jok,
+                               sunbooleantype *jcur, sunrealtype gamma, void *user, N_Vector tmp1, N_Vector tmp2,
+                               N_Vector)
+    {
+      auto             &cb = *static_cast<Callbacks *>(user);
+      const std::size_t n  = cb.system->n_states();
+      *jcur                = !jok;
+      if (!jok)
+        {
+          cb.J.setZero();
+          if (cb.difference_quotients)
+            {
+              if (const int flag = difference_jacobian(cb, t, y, fy, tmp1, tmp2); flag != 0)
+                return flag;
+            }
+          else
+            cb.system->jacobian(t, {N_VGetArrayPointer(y), n}, DenseView{cb.J.data(), n});
+        }
+      Eigen::Map<Eigen::MatrixXd> M(SM_DATA_D(A), static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
+      M.noalias() = (-gamma) * cb.J;
+      M.diagonal().array() += 1.0;
+      return 0;
+    }
+
+    /// Greedy colouring of the columns: a column joins the first colour none
+    /// of whose columns shares a reading component with it. Columns no
+    /// component reads are left out (zero). Without `reads`, every column
+    /// alone and read by every component (CVODE's own quotients).
+    void colour_columns(const std::vector<std::vector<std::size_t>> &reads, std::size_t n, Callbacks &cb)
+    {
+      cb.rows.assign(n, {});
+      cb.colours.clear();
+      cb.increments.assign(n, 0.0);
+      if (reads.empty())
+        {
+          for (std::size_t j = 0; j < n; ++j)
+            {
+              cb.colours.push_back({j});
+              for (std::size_t i = 0; i < n; ++i)
+                cb.rows[j].push_back(i);
+            }
+          return;
+        }
+      if (reads.size() != n)
+        throw std::logic_error("Integrator: rhs_reads has one entry per state");
+      for (std::size_t i = 0; i < reads.size(); ++i)
+        for (std::size_t j : reads[i])
+          {
+            if (j >= n)
+              throw std::logic_error("Integrator: rhs_reads names a state beyond n_states");
+            if (cb.rows[j].empty() || cb.rows[j].back() != i)
+              cb.rows[j].push_back(i);
+          }
+      std::vector<std::vector<char>> used; // used[c][i]: colour c's columns are read by component i
+      for (std::size_t j = 0; j < n; ++j)
+        {
+          if (cb.rows[j].empty())
+            continue;
+          std::size_t c = 0;
+          for (; c < used.size(); ++c)
+            if (std::none_of(cb.rows[j].begin(), cb.rows[j].end(), [&](std::size_t i) { return used[c][i]; }))
+              break;
+          if (c == used.size())
+            {
+              used.emplace_back(n, 0);
+              cb.colours.emplace_back();
+            }
+          cb.colours[c].push_back(j);
+          for (std::size_t i : cb.rows[j])
+            used[c][i] = 1;
+        }
     }
 
     int root_callback(sunrealtype t, N_Vector y, sunrealtype *g, void *user)
     {
-      auto *sys = static_cast<OdeSystem *>(user);
-      sys->roots(t, {N_VGetArrayPointer(y), sys->n_states()}, {g, sys->n_roots()});
+      auto &sys = system_of(user);
+      sys.roots(t, {N_VGetArrayPointer(y), sys.n_states()}, {g, sys.n_roots()});
       return 0;
     }
     // A dense direct linear solver on Eigen's LU with partial pivoting. For
@@ -119,6 +262,7 @@ namespace rectify::system
   struct Integrator::Impl
   {
     OdeSystem      &system;
+    Callbacks       callbacks;
     SUNContext      context = nullptr;
     N_Vector        y       = nullptr;
     N_Vector        atol    = nullptr;
@@ -130,7 +274,9 @@ namespace rectify::system
 
     explicit Impl(OdeSystem &s)
       : system(s)
-    {}
+    {
+      callbacks.system = &s;
+    }
 
     ~Impl()
     {
@@ -142,6 +288,8 @@ namespace rectify::system
         SUNMatDestroy(matrix);
       if (atol)
         N_VDestroy(atol);
+      if (callbacks.weights)
+        N_VDestroy(callbacks.weights);
       if (y)
         N_VDestroy(y);
       if (context)
@@ -204,7 +352,8 @@ namespace rectify::system
     if (options.quiet)
       check(CVodeSetErrFile(m.cvode, nullptr), "CVodeSetErrFile");
     check(CVodeInit(m.cvode, rhs_callback, t0, m.y), "CVodeInit");
-    check(CVodeSetUserData(m.cvode, &system), "CVodeSetUserData");
+    m.callbacks.cvode = m.cvode;
+    check(CVodeSetUserData(m.cvode, &m.callbacks), "CVodeSetUserData");
     check(CVodeSVtolerances(m.cvode, options.relative_tolerance, m.atol), "CVodeSVtolerances");
     m.matrix = SUNDenseMatrix(n, n, m.context);
     // Eigen's LU: fixed capacity up to 32 states (every model but a finely
@@ -214,8 +363,24 @@ namespace rectify::system
     if (!m.matrix || !m.solver)
       throw std::runtime_error("CVODE: cannot allocate the dense linear solver");
     check(CVodeSetLinearSolver(m.cvode, m.solver, m.matrix), "CVodeSetLinearSolver");
-    if (!options.finite_difference_jacobian)
-      check(CVodeSetJacFn(m.cvode, jac_callback), "CVodeSetJacFn");
+    if (options.cvode_linear_system)
+      { // CVODE's own: its cvLsLinSys, with its column-by-column quotients or our Jacobian
+        if (!options.finite_difference_jacobian)
+          check(CVodeSetJacFn(m.cvode, jac_callback), "CVodeSetJacFn");
+      }
+    else
+      {
+        m.callbacks.difference_quotients = options.finite_difference_jacobian;
+        m.callbacks.J                    = Eigen::MatrixXd::Zero(n, n);
+        if (options.finite_difference_jacobian)
+          {
+            colour_columns(system.rhs_reads(), system.n_states(), m.callbacks);
+            m.callbacks.weights = N_VNew_Serial(n, m.context);
+            if (!m.callbacks.weights)
+              throw std::runtime_error("CVODE: cannot allocate vectors");
+          }
+        check(CVodeSetLinSysFn(m.cvode, linear_system_callback), "CVodeSetLinSysFn");
+      }
     check(CVodeSetMaxNumSteps(m.cvode, options.max_steps_between_outputs), "CVodeSetMaxNumSteps");
     if (options.max_order > 0)
       check(CVodeSetMaxOrd(m.cvode, options.max_order), "CVodeSetMaxOrd");
@@ -239,6 +404,7 @@ namespace rectify::system
   {
     IntegratorStats s = impl_->finished;
     s += impl_->current();
+    s.rhs_evaluations_for_fd_jacobian += impl_->callbacks.evaluations;
     s.events            = impl_->events;
     s.reinitialisations = impl_->reinits;
     return s;

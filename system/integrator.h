@@ -28,6 +28,12 @@ namespace rectify::system
     virtual void rhs(double t, std::span<const double> y, std::span<double> ydot) const = 0;
     /// J = df/dy, all entries written (J arrives zeroed).
     virtual void jacobian(double t, std::span<const double> y, DenseView J) const = 0;
+    /// For each component i of f, the states f_i reads (a superset of row
+    /// i's nonzeros in df/dy, in any discrete mode); empty: unknown. With it
+    /// the difference-quotient Jacobian perturbs states that no f_i reads
+    /// together in one evaluation of f (a coloured Jacobian, equal to the
+    /// column-by-column one bit for bit).
+    virtual std::vector<std::vector<std::size_t>> rhs_reads() const { return {}; }
     /// Root functions; every root is located where its function crosses zero
     /// from above (direction -1).
     virtual std::size_t n_roots() const { return 0; }
@@ -42,6 +48,13 @@ namespace rectify::system
     double              relative_tolerance = 1e-6;
     std::vector<double> absolute_tolerances;   ///< one per state
     bool                finite_difference_jacobian = false;
+    /// Where CVODE's Newton matrix I - gamma J is formed. false: here, in
+    /// one pass over the saved J, its difference quotients (with the
+    /// system's rhs_reads()) a colour of columns per evaluation of f. true:
+    /// CVODE's own routines (copy, scale, add I; quotients column by
+    /// column). The same matrix to the last bit, in more work (the tests
+    /// compare the two).
+    bool                cvode_linear_system = false;
     long                max_steps_between_outputs   = 1000000;
     bool                quiet = false; ///< no CVODE messages on stderr (failures still throw)
     /// Highest BDF order CVODE may use (0: its own, 5). Orders 1-2 are

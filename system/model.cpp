@@ -706,6 +706,66 @@ namespace rectify::system
                            0.0;
   }
 
+  std::vector<std::vector<std::size_t>> Model::rhs_reads() const
+  {
+    using namespace state;
+    const std::size_t                     n = n_states();
+    std::vector<std::vector<std::size_t>> r(n);
+    // flows(): the pressures, each valve's opening (its second mode with
+    // two modes), the reeds' velocities with fluid loading (displaced flow,
+    // film), and the outlet line's first node and last segment.
+    std::vector<std::size_t> flow{chamber_p, accumulator_p, high_p, low_p, outlet_reed_x, inlet_reed_x};
+    if (c_.k_r2 > 0)
+      flow.insert(flow.end(), {outlet_reed2_x, inlet_reed2_x});
+    if (loading_)
+      flow.insert(flow.end(), {outlet_reed_v, inlet_reed_v});
+    if (c_.L_line > 0)
+      flow.insert(flow.end(), {line_node_p, line_segment_flow(c_.n_line_segments - 1)});
+    const auto with_flows = [&](std::initializer_list<std::size_t> own) {
+      std::vector<std::size_t> v = flow;
+      v.insert(v.end(), own);
+      return v;
+    };
+    r[piston_x]   = {piston_v};
+    r[piston_v]   = {piston_x, piston_v, fluid_x, fluid_v};
+    if (n > coil_current)
+      r[piston_v].push_back(coil_current);
+    r[fluid_x]    = {fluid_v};
+    r[fluid_v]    = {piston_x, piston_v, fluid_x, fluid_v, chamber_p};
+    r[actuator_x] = {actuator_v};
+    r[actuator_v] = {actuator_x, actuator_v, high_p, low_p};
+    for (std::size_t ix : {outlet_reed_x, inlet_reed_x})
+      {
+        r[ix] = {ix + 1};
+        // force, loading, film, the seat's reaction on both modes
+        r[ix + 1] = with_flows({ix, ix + 1});
+      }
+    if (n > outlet_reed2_x)
+      for (std::size_t v = 0; v < 2; ++v)
+        {
+          const std::size_t ix = v == 0 ? outlet_reed_x : inlet_reed_x, ix2 = v == 0 ? outlet_reed2_x : inlet_reed2_x;
+          r[ix + 1].insert(r[ix + 1].end(), {ix2, ix2 + 1});
+          r[ix2]     = {ix2 + 1};
+          r[ix2 + 1] = with_flows({ix, ix + 1, ix2, ix2 + 1});
+        }
+    r[chamber_p]     = with_flows({piston_v});
+    r[accumulator_p] = flow;
+    r[high_p]        = with_flows({actuator_v});
+    r[low_p]         = with_flows({actuator_v});
+    r[outlet_volume] = r[inlet_volume] = r[outlet_pressure_integral] = flow;
+    if (n == thesis_count)
+      return r;
+    if (c_.L_line > 0)
+      for (std::size_t k = 0; k < c_.n_line_segments; ++k)
+        {
+          const std::size_t iq = line_segment_flow(k), ip = line_segment_node(k);
+          r[iq] = {ip, iq, k + 1 < c_.n_line_segments ? line_segment_node(k + 1) : std::size_t(high_p)};
+          r[ip] = k == 0 ? with_flows({ip, iq}) : std::vector<std::size_t>{line_segment_flow(k - 1), iq, ip};
+        }
+    r[coil_current] = {coil_current};
+    return r;
+  }
+
   void Model::jacobian(double, std::span<const double> y, DenseView J) const
   {
     using namespace state;

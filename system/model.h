@@ -180,6 +180,10 @@ namespace rectify::system
     }
     void        rhs(double t, std::span<const double> y, std::span<double> ydot) const override;
     void        jacobian(double t, std::span<const double> y, DenseView J) const override;
+    /// The states each component of rhs() reads, for the coloured
+    /// difference-quotient Jacobian (every effect's states; valves open or
+    /// on their seats; tests Effects.RhsReadsCoversEveryDependence, ReedLoading.RhsReads...).
+    std::vector<std::vector<std::size_t>> rhs_reads() const override;
     std::size_t n_roots() const override { return 2; }
     void        roots(double t, std::span<const double> y, std::span<double> g) const override;
     bool handle_events(double t, std::span<double> y, std::span<const int> found) override;

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <iostream>
 #include <numbers>
 
 #include "common/case_file.h"
@@ -92,6 +93,66 @@ TEST(Effects, VolumeBalancesCloseWithEveryEffectOn)
       EXPECT_LT(r.volume_balance_rel_error, 1e-6) << to_string(scenario);
       EXPECT_GT(r.min_reed_opening_m, -1e-9);
     }
+}
+
+TEST(Effects, RhsReadsCoversEveryDependence)
+{
+  // The coloured Jacobian is CVODE's only if no component of f reads a
+  // state rhs_reads() leaves out, in any discrete mode.
+  auto one_segment                          = all_effects();
+  one_segment.lines.outlet_line_segments    = 1;
+  auto coil                                 = all_effects();
+  coil.drive.coil_dynamics                  = "on";
+  coil.transducer.coil_inductance_H         = 2e-3;
+  auto laminar                              = all_effects();
+  laminar.valves.leak_area_m2               = 0;
+  const std::vector<double> t{0.0, 1e-3, 1.0}, v{0.0, 19.0, 19.0};
+  int case_no = 0;
+  for (const auto &[p, voltage] : std::vector<std::pair<SystemParameters, bool>>{
+         {all_effects(), false}, {one_segment, false}, {coil, true}, {laminar, false}, {reference(), false}})
+    for (auto s : {Scenario::no_flow, Scenario::loaded})
+      {
+        Model m = voltage ? Model(p, reference_map(p), ValveModel::dynamic, s, Drive::from_samples(t, v, 100, true, "ramp"))
+                          : make(p, s, 100);
+        EXPECT_EQ(test_support::rhs_reads_misses(m, m.rhs_reads(), 8, 7 + case_no), "") << "case " << case_no;
+        ++case_no;
+      }
+  // and the check finds a dependence left out
+  Model m     = make(all_effects(), Scenario::no_flow, 100);
+  auto  reads = m.rhs_reads();
+  std::erase(reads[state::fluid_v], std::size_t(state::chamber_p));
+  EXPECT_NE(test_support::rhs_reads_misses(m, reads, 2, 1).find("reads y[" + std::to_string(state::chamber_p)), std::string::npos);
+}
+
+TEST(Effects, TheIntegratorsNewtonMatrixGivesCVODEsOwnRunBitForBit)
+{
+  // I - gamma J formed by the integrator, J's difference quotients a
+  // colour of columns per evaluation of f, with CVODE's increments and
+  // arithmetic: the same steps and end state to the last bit as CVODE's own
+  // routines, in fewer evaluations of f. And with the analytic Jacobian
+  // (the thesis model).
+  for (auto [scenario, f] : {std::pair{Scenario::no_flow, 100.0}, std::pair{Scenario::loaded, 200.0}})
+    for (bool effects : {true, false})
+      {
+        Model      m     = make(effects ? all_effects() : reference(), scenario, f);
+        const auto cvode = test_support::run_linear_system(m, options(1), true, effects, 3.0 / f);
+        const auto own   = test_support::run_linear_system(m, options(1), false, effects, 3.0 / f);
+        const std::string what = to_string(scenario) + (effects ? ", every effect" : ", the thesis model");
+        EXPECT_EQ(own.stats.steps, cvode.stats.steps) << what;
+        EXPECT_EQ(own.stats.rhs_evaluations, cvode.stats.rhs_evaluations) << what;
+        EXPECT_EQ(own.stats.jacobian_evaluations, cvode.stats.jacobian_evaluations) << what;
+        EXPECT_GT(own.stats.events, 2) << what;
+        for (std::size_t i = 0; i < m.n_states(); ++i)
+          EXPECT_EQ(own.state[i], cvode.state[i]) << what << ", state " << i;
+        if (!effects)
+          continue;
+        EXPECT_EQ(cvode.stats.rhs_evaluations_for_fd_jacobian,
+                  cvode.stats.jacobian_evaluations * static_cast<long>(m.n_states()));
+        std::cout << what << ": " << m.n_states() << " columns in "
+                  << own.stats.rhs_evaluations_for_fd_jacobian / own.stats.jacobian_evaluations << " colours\n";
+        EXPECT_LT(own.stats.rhs_evaluations_for_fd_jacobian, 0.7 * cvode.stats.rhs_evaluations_for_fd_jacobian)
+          << own.stats.rhs_evaluations_for_fd_jacobian << " against " << cvode.stats.rhs_evaluations_for_fd_jacobian;
+      }
 }
 
 TEST(Effects, FreeAirStoredVolumeIsTheIntegralOfItsCompliance)

@@ -354,6 +354,31 @@ TEST(ReedLoading, AMovingReedDrawsFlowThroughItsValve)
   EXPECT_EQ(model.displaced_flow(1, y), 0.0); // the inlet reed is seated
 }
 
+// The coloured difference-quotient Jacobian with the loading: the reeds'
+// velocities feed the flows (displaced flow, film), read as rhs_reads() says,
+// and a run gives CVODE's own column-by-column run bit for bit.
+TEST(ReedLoading, RhsReadsCoversTheLoadingAndTheColouredRunIsCVODEs)
+{
+  for (const char *limit : {"none", "cavitation"})
+    for (auto scenario : {Scenario::no_flow, Scenario::loaded})
+      {
+        auto p                              = loaded_reference();
+        p.reed.film_suction_limit           = limit;
+        p.valves.orifice_discharge_coefficient = 0.6;
+        const auto set = loaded_set(p);
+        Model      model(p, ValveMaps{set, set}, ValveModel::dynamic, scenario, Drive::sine(200, 20, 10));
+        EXPECT_EQ(test_support::rhs_reads_misses(model, model.rhs_reads(), 8, 3), "") << limit << " " << to_string(scenario);
+        RunOptions o;
+        o.relative_tolerance = 1e-7;
+        const auto dense     = test_support::run_linear_system(model, o, true, true, 2.0 / 200);
+        const auto fast      = test_support::run_linear_system(model, o, false, true, 2.0 / 200);
+        EXPECT_EQ(fast.stats.steps, dense.stats.steps);
+        for (std::size_t i = 0; i < model.n_states(); ++i)
+          EXPECT_EQ(fast.state[i], dense.state[i]) << limit << " " << to_string(scenario) << " state " << i;
+        EXPECT_LT(fast.stats.rhs_evaluations_for_fd_jacobian, dense.stats.rhs_evaluations_for_fd_jacobian);
+      }
+}
+
 TEST(ReedLoading, AMapSetWithoutALoadingTableIsRefused)
 {
   const auto p   = loaded_reference();
