@@ -836,6 +836,7 @@ namespace rectify::diagnosis
     so.lead_cycles        = lead_cycles;
     so.band_Hz            = band_Hz;
     so.recorded           = recorded;
+    so.drive              = drive;
     return so;
   }
 
@@ -932,7 +933,8 @@ namespace rectify::diagnosis
     rc.drive_noise_sd     = white_noise_sd(run.signal(run.drive_column()));
     rc.n_train = std::max<std::size_t>(
       10, static_cast<std::size_t>(std::floor(training_fraction * static_cast<double>(run.time_s.size()))));
-    rc.run = std::move(run);
+    rc.run   = std::move(run);
+    rc.drive = std::make_shared<const system::Drive>(measured_drive(rc.run, f));
     return rc;
   }
 

@@ -123,6 +123,9 @@ namespace rectify::diagnosis
     /// Its state at the first sample (StartState::record), read once from
     /// the record before it is band-limited.
     RecordedState                 recorded;
+    /// Its cleaned drive (measured_drive), made once from `run` by
+    /// make_run_case: remake it if `run` changes.
+    std::shared_ptr<const system::Drive> drive;
     nlohmann::json                start_scores;      ///< residual of each start tried (auto)
     /// "rest with the case's baseline, record with valve_leakage's fit" when
     /// the start was chosen again, with the named effect, and changed (a

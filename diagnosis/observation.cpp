@@ -233,7 +233,12 @@ namespace rectify::diagnosis
   system::Drive measured_drive(const MeasuredRun &run, double frequency_Hz, double extra_noise_sd,
                                unsigned long seed, StartState start, double lead_cycles)
   {
-    system::Drive d = measured_drive(run, frequency_Hz, extra_noise_sd, seed);
+    return with_lead(measured_drive(run, frequency_Hz, extra_noise_sd, seed), run, frequency_Hz, start, lead_cycles);
+  }
+
+  system::Drive with_lead(system::Drive d, const MeasuredRun &run, double frequency_Hz, StartState start,
+                          double lead_cycles)
+  {
     if (start == StartState::rest || start == StartState::record || !(lead_cycles > 0))
       return d;
     const auto        &t0  = run.time_s;
@@ -431,9 +436,12 @@ namespace rectify::diagnosis
     std::optional<RecordedState> recorded;
     if (options.start == StartState::record)
       recorded = options.recorded ? *options.recorded : recorded_state(run, setup.frequency_Hz);
-    Signals all = simulate_drive(p, map,
-                                 measured_drive(run, setup.frequency_Hz, options.drive_noise_sd, options.seed,
-                                                options.start, options.lead_cycles),
+    system::Drive cleaned = options.drive && !(options.drive_noise_sd > 0) ?
+                              *options.drive :
+                              measured_drive(run, setup.frequency_Hz, options.drive_noise_sd, options.seed);
+    Signals       all     = simulate_drive(p, map,
+                                 with_lead(std::move(cleaned), run, setup.frequency_Hz, options.start,
+                                           options.lead_cycles),
                                  setup.scenario, times, options.relative_tolerance, t_start,
                                  recorded ? &*recorded : nullptr);
     Signals out;

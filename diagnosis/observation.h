@@ -12,6 +12,7 @@
 
 #include <limits>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -78,6 +79,11 @@ namespace rectify::diagnosis
     /// For StartState::record: the record's state, if already read (once
     /// per run: RunCase); read from the run otherwise.
     std::optional<RecordedState> recorded;
+    /// The run's cleaned drive, measured_drive(run, frequency), if already
+    /// made (once per run: RunCase); made from the run otherwise, and
+    /// always with drive_noise_sd > 0. Cleaning it (a Fourier fit and a
+    /// cosine transform of the record's length) was a tenth of a run.
+    std::shared_ptr<const system::Drive> drive;
   };
 
   using Signals = std::map<std::string, std::vector<double>>;
@@ -152,6 +158,9 @@ namespace rectify::diagnosis
   /// cycle repeated (periodic).
   system::Drive measured_drive(const MeasuredRun &run, double frequency_Hz, double extra_noise_sd,
                                unsigned long seed, StartState start, double lead_cycles);
+  /// The same from the run's cleaned drive `cleaned` (measured_drive(run, frequency_Hz, ...)).
+  system::Drive with_lead(system::Drive cleaned, const MeasuredRun &run, double frequency_Hz, StartState start,
+                          double lead_cycles);
 
   /// Simulates `run` with parameters `p` and returns every signal of
   /// signal_columns() that the run has, at its sample times. Throws

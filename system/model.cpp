@@ -373,11 +373,6 @@ namespace rectify::system
       return {q, (0.5 * u * u + u_t * u_t) / (s * std::sqrt(K * r))};
     }
 
-    /// A valve (R q + K q|q| = u) and its leak paths side by side - a
-    /// laminar one (q = u / R_L; R_L = 0: none) and a turbulent orifice
-    /// (turbulent_leak_flow, K_L) - in series with a line of resistance
-    /// R_s: the flow for the drop dp across all. u + R_s q(u) = dp is
-    /// increasing in u: Newton, bracketed by 0 and dp.
     /// The root of an increasing function in [lo, hi] (negative at lo,
     /// positive at hi) by Newton from u, bisecting where a step would leave
     /// the bracket; stops when a step or the bracket is within tol.
@@ -413,6 +408,11 @@ namespace rectify::system
       return {qv + G_L * u + qt, gv + G_L + gt};
     }
 
+    /// A valve (R q + K q|q| = u) and its leak paths side by side - a
+    /// laminar one (q = u / R_L; R_L = 0: none) and a turbulent orifice
+    /// (turbulent_leak_flow, K_L) - in series with a line of resistance
+    /// R_s: the flow for the drop dp across all. u + R_s q(u) = dp is
+    /// increasing in u: Newton, bracketed by 0 and dp.
     LeakyBranch leaky_branch_flow(double R, double K, double R_L, double K_L, double R_s, double dp)
     {
       const auto pair = [&](double u) { return valve_and_leaks(R, K, R_L, K_L, u); };

@@ -217,6 +217,39 @@ TEST(ForeignData, ALoadedRunIsComparedBelowTheReedsFlutter)
   EXPECT_GT(seventh_no_flow, 4.9e4); // and kept in the no-flow run
 }
 
+// A run's cleaned drive (a Fourier fit and a cosine transform of the
+// record's length, a tenth of a run) is made once, by make_run_case: a run
+// from it is the run made from the record, bit for bit; a drive shaken by
+// extra noise is still made from the record.
+TEST(ForeignData, ARunsCleanedDriveIsMadeOnceAndGivesTheSameRun)
+{
+  const double f   = 100;
+  auto         run = record(f, 6, [&](double t) { return 3e6 + 1e5 * std::cos(2 * pi * f * t); });
+  std::mt19937 rng(3);
+  std::normal_distribution<double> noise(0.0, 0.05);
+  for (double &x : run.signals["current_A"])
+    x += noise(rng);
+  const auto rc = make_run_case(run, system::Scenario::no_flow, f, 0.75, false, 0, 0);
+  ASSERT_TRUE(rc.drive);
+  const auto fresh = measured_drive(rc.run, f);
+  for (double t : {0.0, 1.3e-3, 0.017, 0.0599})
+    EXPECT_EQ(rc.drive->value(t), fresh.value(t)) << t;
+
+  const auto p   = system::SystemParameters::from_case(CaseFile::load(reference_case_path()));
+  const auto map = system::load_valve_maps(p);
+  auto       so  = rc.simulation(1e-6);
+  const auto cached = simulate_run(p, map, rc.run, rc.setup, so);
+  so.drive.reset();
+  const auto made = simulate_run(p, map, rc.run, rc.setup, so);
+  ASSERT_EQ(cached.size(), made.size());
+  for (const auto &[name, values] : made)
+    EXPECT_EQ(cached.at(name), values) << name;
+  so.drive          = rc.drive;
+  so.drive_noise_sd = 0.05;
+  so.seed           = 7;
+  EXPECT_NE(simulate_run(p, map, rc.run, rc.setup, so).at("outlet_pressure_Pa"), made.at("outlet_pressure_Pa"));
+}
+
 // A loaded run's baseline reed has its second mode (a real reed's shows when
 // it is off its seat most of the time); a no-flow run's keeps the case's.
 TEST(ForeignData, TheBaselineReedHasItsSecondMode)
