@@ -27,11 +27,14 @@ namespace rectify
     const std::regex table_re(R"(^\s*\[\s*([A-Za-z0-9_]+)\s*\]\s*(#.*)?$)");
     // An array of tables ([[port]]): its keys are no table's that an entry names.
     const std::regex array_table_re(R"(^\s*\[\[\s*([A-Za-z0-9_]+)\s*\]\]\s*(#.*)?$)");
-    const std::regex key_re(R"(^\s*([A-Za-z0-9_]+)\s*=\s*(.*)$)");
+    // a bare key, or a quoted one ([uncertain] "table.key" = [lo, hi])
+    const std::regex key_re(R"re(^\s*"?([A-Za-z0-9_.]+)"?\s*=\s*(.*)$)re");
     const std::regex path_value_re(R"re(^"([^"]*)"(.*)$)re");
     std::string      table;
     std::vector<bool> done(entries.size(), false);
     std::vector<std::string> out;
+    for (std::size_t e = 0; e < entries.size(); ++e) // one to comment out that the file lacks: nothing to do
+      done[e] = entries[e].value.empty();
     const auto flush_table = [&](const std::string &t) {
       for (std::size_t e = 0; e < entries.size(); ++e)
         if (!done[e] && entries[e].table == t)
@@ -64,8 +67,9 @@ namespace rectify
             for (std::size_t e = 0; e < entries.size(); ++e)
               if (entries[e].table == table && entries[e].key == key)
                 {
-                  out.push_back(key + " = " + entries[e].value + "  # " + entries[e].comment +
-                                " (was: " + trim(m[2]) + ")");
+                  out.push_back(entries[e].value.empty() ? "# " + trim(line) + "  # " + entries[e].comment :
+                                                           key + " = " + entries[e].value + "  # " +
+                                                             entries[e].comment + " (was: " + trim(m[2]) + ")");
                   done[e]  = true;
                   replaced = true;
                 }

@@ -12,7 +12,10 @@ namespace rectify
 {
   struct CaseEntry
   {
-    std::string table, key, value; ///< value as TOML text ("1.5e-3", "\"on\"")
+    /// value as TOML text ("1.5e-3", "\"on\""); empty: the original's line
+    /// is commented out (and nothing added where it has none). key may be a
+    /// quoted one's text ([uncertain] "lines.diameter_m").
+    std::string table, key, value;
     std::string comment;
   };
 

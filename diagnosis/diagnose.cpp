@@ -97,6 +97,11 @@ namespace rectify::diagnosis
       std::vector<std::size_t>        free;
       std::vector<double>             held;  ///< per base.uncertain: its position when not free
       std::vector<double>             nuisance_start; ///< free ones' positions, then the gain's (0.5: 1)
+      /// Per base.uncertain: true where the effect sets the same key (the
+      /// baseline's calibrated second mode and reed_second_mode): the
+      /// effect's value wins, and the baseline parameter is neither fitted
+      /// nor applied. Empty: none.
+      std::vector<bool>               superseded;
 
       /// An evaluator with every [uncertain] parameter free, starting at the case's values.
       static Evaluator make(const system::SystemParameters &base, const system::ValveMaps &map,
@@ -104,7 +109,7 @@ namespace rectify::diagnosis
                             const DiagnoseOptions &options, unsigned run_threads,
                             const std::vector<Signals> *reference = nullptr)
       {
-        Evaluator ev{base, map, runs, effect, options, run_threads, reference, 0.0, 1, {}, {}, {}};
+        Evaluator ev{base, map, runs, nullptr, options, run_threads, reference, 0.0, 1, {}, {}, {}, {}};
         for (std::size_t j = 0; j < base.uncertain.size(); ++j)
           {
             const auto &q = base.uncertain[j];
@@ -113,7 +118,35 @@ namespace rectify::diagnosis
             ev.nuisance_start.push_back(ev.held.back());
           }
         ev.nuisance_start.push_back(0.5);
+        ev.use_effect(effect);
         return ev;
+      }
+
+      bool is_superseded(std::size_t j) const { return j < superseded.size() && superseded[j]; }
+
+      /// The candidate `e` (null: none) in this evaluator's space: the
+      /// [uncertain] parameters it sets itself leave the free set.
+      void use_effect(const Effect *e)
+      {
+        effect = e;
+        superseded.assign(base.uncertain.size(), false);
+        if (e)
+          for (std::size_t j = 0; j < base.uncertain.size(); ++j)
+            for (const auto &par : e->parameters())
+              if (par.table == base.uncertain[j].table && par.key == base.uncertain[j].key)
+                superseded[j] = true;
+        std::vector<std::size_t> kept;
+        std::vector<double>      start;
+        for (std::size_t i = 0; i < free.size(); ++i)
+          if (!is_superseded(free[i]))
+            {
+              kept.push_back(free[i]);
+              if (i < nuisance_start.size())
+                start.push_back(nuisance_start[i]);
+            }
+        start.push_back(nuisance_start.empty() ? 0.5 : nuisance_start.back());
+        free           = kept;
+        nuisance_start = start;
       }
 
       std::size_t samples(const RunCase &rc) const
@@ -175,7 +208,8 @@ namespace rectify::diagnosis
         std::map<std::string, double> out;
         const auto                    w = uncertain_units(u);
         for (std::size_t j = 0; j < base.uncertain.size(); ++j)
-          out[base.uncertain[j].name()] = uncertain_from_unit(base.uncertain[j], w[j]);
+          if (!is_superseded(j))
+            out[base.uncertain[j].name()] = uncertain_from_unit(base.uncertain[j], w[j]);
         return out;
       }
       system::SystemParameters parameters(const std::vector<double> &u) const
@@ -183,7 +217,8 @@ namespace rectify::diagnosis
         system::SystemParameters p = base;
         const auto               w = uncertain_units(u);
         for (std::size_t j = 0; j < base.uncertain.size(); ++j)
-          *p.real_field(base.uncertain[j].table, base.uncertain[j].key) =
+          if (!is_superseded(j))
+            *p.real_field(base.uncertain[j].table, base.uncertain[j].key) =
             uncertain_from_unit(base.uncertain[j], w[j]);
         if (effect)
           effect->apply(values(u), p);
@@ -1091,18 +1126,22 @@ namespace rectify::diagnosis
       return J;
     }
 
-    /// The same fit with every [uncertain] parameter free: the evaluator
-    /// and the point (effect's positions, every uncertain one's, the gain).
+    /// The same fit with every [uncertain] parameter free (but those the
+    /// effect supersedes): the evaluator and the point (effect's positions,
+    /// every free uncertain one's, the gain).
     std::pair<Evaluator, std::vector<double>> with_every_uncertain(const Evaluator &ev, const std::vector<double> &u)
     {
       const std::size_t ne  = ev.n_effect();
       Evaluator         all = ev;
       all.free.clear();
-      for (std::size_t j = 0; j < ev.base.uncertain.size(); ++j)
-        all.free.push_back(j);
       const std::vector<double> w = ev.uncertain_units(u);
       std::vector<double>       ua(u.begin(), u.begin() + static_cast<std::ptrdiff_t>(ne));
-      ua.insert(ua.end(), w.begin(), w.end());
+      for (std::size_t j = 0; j < ev.base.uncertain.size(); ++j)
+        if (!ev.is_superseded(j))
+          {
+            all.free.push_back(j);
+            ua.push_back(w[j]);
+          }
       ua.push_back(u.back());
       return {all, ua};
     }
@@ -1296,6 +1335,9 @@ namespace rectify::diagnosis
       std::vector<bool> was_free(nq, false);
       for (std::size_t j : ev.free)
         was_free[j] = true;
+      for (std::size_t j = 0; j < nq; ++j)
+        if (ev.is_superseded(j))
+          was_free[j] = true; // not a candidate for freeing
       if (std::all_of(was_free.begin(), was_free.end(), [](bool b) { return b; }))
         return {};
       const auto [all, ua]         = with_every_uncertain(ev, u);
@@ -1310,7 +1352,7 @@ namespace rectify::diagnosis
           names.push_back(ev.effect->parameters()[i].key);
           holdable.push_back(false);
         }
-      for (std::size_t j = 0; j < nq; ++j)
+      for (std::size_t j : all.free)
         {
           names.push_back(base.uncertain[j].name());
           holdable.push_back(!was_free[j]);
@@ -1322,15 +1364,16 @@ namespace rectify::diagnosis
       std::vector<BaselineParameter> freed;
       std::vector<std::size_t>       free;
       std::vector<double>            un(u.begin(), u.begin() + static_cast<std::ptrdiff_t>(ne));
-      for (std::size_t j = 0; j < nq; ++j)
+      for (std::size_t c = 0; c < all.free.size(); ++c)
         {
-          if (!was_free[j] && !d.active[ne + j])
+          const std::size_t j = all.free[c], k = ne + c;
+          if (!was_free[j] && !d.active[k])
             continue;
           free.push_back(j);
           un.push_back(w[j]);
           if (was_free[j])
             continue;
-          freed.push_back(baseline_parameter(base, base.uncertain[j], w[j], d.sd[ne + j], true, d.note[ne + j]));
+          freed.push_back(baseline_parameter(base, base.uncertain[j], w[j], d.sd[k], true, d.note[k]));
         }
       un.push_back(u.back());
       ev.free = free;
@@ -1428,8 +1471,8 @@ namespace rectify::diagnosis
       std::vector<std::string> names;
       for (const auto &p : ev.effect->parameters())
         names.push_back(p.key);
-      for (const auto &q : ev.base.uncertain)
-        names.push_back(q.name());
+      for (std::size_t j : all.free)
+        names.push_back(ev.base.uncertain[j].name());
       names.push_back("force_gain");
 
       // the profiles: each parameter at -sd and +sd, the rest refitted, all
@@ -1475,7 +1518,8 @@ namespace rectify::diagnosis
           normal.solve(-Jb.transpose() * (r0v + J.col(static_cast<Eigen::Index>(i)) * step));
         for (Eigen::Index j = 0; j < nb; ++j)
           from[static_cast<std::size_t>(j)] = std::clamp(from[static_cast<std::size_t>(j)] + db(j), 0.0, 1.0);
-        Evaluator profile{fixed, all.map, all.runs, nullptr, short_search, 1, nullptr, 0.0, 1, all.free, all.held, from};
+        Evaluator profile{fixed, all.map, all.runs, nullptr, short_search, 1, nullptr, 0.0, 1, all.free, all.held, from,
+                          all.superseded};
         // The valley can curve far from where the Jacobian points (the
         // seal's: the oil column moves by half its log range for 20 %), so
         // the parameter it trades with most is also scanned over its range
@@ -1534,7 +1578,7 @@ namespace rectify::diagnosis
           {
             const std::vector<double> at_fit(ua.begin() + ne, ua.end());
             const auto more = fit(Evaluator{fixed, all.map, all.runs, nullptr, ev.options, 1, nullptr, 0.0, 1,
-                                            all.free, all.held, at_fit},
+                                            all.free, all.held, at_fit, all.superseded},
                                   unused, &at_fit, 0.05);
             s.runs += more.evaluations + 1;
             if (!more.failed && more.ssr_train < r.ssr_train)
@@ -1774,7 +1818,7 @@ namespace rectify::diagnosis
         parallel_for(schedule.size(), cores, [&](std::size_t j) {
           const std::size_t i  = schedule[j];
           Evaluator         ev = baseline_ev;
-          ev.effect            = todo[i];
+          ev.use_effect(todo[i]);
           ev.run_threads       = 1;
           ev.reference         = &current;
           ev.batch_threads     = cores;
@@ -1903,7 +1947,7 @@ namespace rectify::diagnosis
             // parameters settle (iteratively reweighted least squares).
             std::vector<double> u = c.u;
             Evaluator named_ev    = baseline_ev; // one fit: its runs at once
-            named_ev.effect       = todo[i];
+            named_ev.use_effect(todo[i]);
             named_ev.reference    = nullptr;
             named_ev.run_threads  = cores;
             if (options.refine_passes > 0)
@@ -1983,15 +2027,22 @@ namespace rectify::diagnosis
           rr.candidates.push_back(c);
         result.rounds.push_back(rr);
         // the model the next round starts from
-        if (rr.effect != "none")
-          {
-            find_effect(rr.effect)->apply(rr.values, base);
-            named.push_back(rr.effect);
-          }
         base.transducer.piezomagnetic_coefficient_m_per_A *= rr.force_gain;
         for (const auto &q : base.uncertain) // the baseline as fitted: the next round starts there
           if (rr.baseline.count(q.name()))
             *base.real_field(q.table, q.key) = rr.baseline.at(q.name());
+        if (rr.effect != "none")
+          {
+            const auto e = find_effect(rr.effect);
+            e->apply(rr.values, base);
+            named.push_back(rr.effect);
+            // an [uncertain] parameter the effect has set (the calibrated
+            // second mode, once reed_second_mode is named) is the effect's now
+            std::erase_if(base.uncertain, [&](const system::UncertainParameter &q) {
+              return std::any_of(e->parameters().begin(), e->parameters().end(),
+                                 [&](const EffectParameter &par) { return par.table == q.table && par.key == q.key; });
+            });
+          }
         if (round == 0)
           baseline_prediction = predictions[0];
         if (rr.effect == "none")

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <random>
+#include <sstream>
 
 #include "cli_helpers.h"
 #include "common/case_file.h"
@@ -700,4 +701,70 @@ TEST(ForeignData, TheActuatorPositionIsComparedUpToItsSensorsZero)
     }
   EXPECT_LT(worst, 0.01 * offset);
   EXPECT_NEAR(mean_gap, offset, 0.01 * offset);
+}
+
+// A case can declare the reed's second mode [uncertain]; the effect
+// reed_second_mode sets the same key and supersedes it: in the effect's
+// fits it is neither fitted nor applied, and the named value stays (the
+// baseline's value, applied after the effect's at the round's end and in
+// the profiles, once overwrote it). The new case file comments the range
+// out (the named value lies outside it) and reads back. Plumbing, on the
+// model's own record (synth): a mode far below the declared range.
+TEST(ForeignData, AnUncertainSecondModeIsSupersededByTheNamedEffect)
+{
+  const auto dir = scratch("foreign_second_mode");
+  std::string text;
+  {
+    std::ifstream     in(reference_case_path());
+    std::stringstream ss;
+    ss << in.rdbuf();
+    text = ss.str();
+  }
+  const auto replace = [&](const std::string &from, const std::string &to) {
+    const auto at = text.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    text.replace(at, from.size(), to);
+  };
+  replace("second_mode_frequency_Hz = 0.0", "second_mode_frequency_Hz = 4261.0");
+  replace("resistance_map = \"thesis-resistance.csv\"",
+          "resistance_map = \"" + (reference_case_path().parent_path() / "thesis-resistance.csv").string() + "\"");
+  replace("[uncertain]\n", "[uncertain]\n\"reed.second_mode_frequency_Hz\" = [3874.0, 4688.0]\n");
+  const auto rig = dir / "case.toml";
+  std::ofstream(rig) << text;
+  const auto declared = system::SystemParameters::from_case(CaseFile::load(rig));
+  ASSERT_TRUE(std::any_of(declared.uncertain.begin(), declared.uncertain.end(),
+                          [](const auto &q) { return q.name() == "reed.second_mode_frequency_Hz"; }));
+
+  const double truth = 2600;
+  auto r = rectify_cli("synth --case " + rig.string() + " --effect reed_second_mode --param second_mode_frequency_Hz=" +
+                       std::to_string(truth) + " --scenario loaded --noise 0.01 --seed 4 --cycles 8 --out " +
+                       (dir / "data").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto out = dir / "d";
+  const auto s   = diagnose_summary(dir / "data" / "data.csv",
+                                    "--case " + rig.string() + " --scenario loaded --effects reed_second_mode "
+                                    "--reed-second-mode case", out);
+  ASSERT_FALSE(s.is_null());
+  bool listed = false; // the baseline's fit had it
+  for (const auto &b : s["baseline_fit"])
+    listed = listed || b["parameter"] == "reed.second_mode_frequency_Hz";
+  EXPECT_TRUE(listed) << s["baseline_fit"].dump(1);
+  ASSERT_EQ(s["effect"], "reed_second_mode") << s["decision"];
+  const double fitted = s["parameters"]["second_mode_frequency_Hz"].get<double>();
+  EXPECT_NEAR(fitted, truth, 0.01 * truth);
+  EXPECT_FALSE(s["baseline"].contains("reed.second_mode_frequency_Hz")) << s["baseline"].dump(1);
+  for (const auto &q : s["parameter_uncertainty"]) // the profiles ran with the effect's value
+    EXPECT_NE(q["parameter"], "reed.second_mode_frequency_Hz");
+
+  std::ifstream     in(out / s["new_case"]["file"].get<std::string>());
+  std::stringstream written_text;
+  written_text << in.rdbuf();
+  const std::string w = written_text.str();
+  EXPECT_EQ(w.find("second_mode_frequency_Hz = ", w.find("second_mode_frequency_Hz = ") + 1), std::string::npos)
+    << "written twice";
+  EXPECT_NE(w.find("# \"reed.second_mode_frequency_Hz\" = [3874.0, 4688.0]"), std::string::npos) << w;
+  const auto written = system::SystemParameters::from_case(CaseFile::parse(w, "new.toml", dir));
+  EXPECT_NEAR(written.reed.second_mode_frequency_Hz, fitted, 1e-6 * fitted);
+  EXPECT_EQ(written.uncertain.size(), declared.uncertain.size() - 1);
+  EXPECT_TRUE(s["new_case"]["matches_refit"].get<bool>()) << s["new_case"].dump(1);
 }
