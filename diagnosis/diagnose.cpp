@@ -97,10 +97,10 @@ namespace rectify::diagnosis
       std::vector<std::size_t>        free;
       std::vector<double>             held;  ///< per base.uncertain: its position when not free
       std::vector<double>             nuisance_start; ///< free ones' positions, then the gain's (0.5: 1)
-      /// Per base.uncertain: true where the effect sets the same key (the
-      /// baseline's calibrated second mode and reed_second_mode): the
-      /// effect's value wins, and the baseline parameter is neither fitted
-      /// nor applied. Empty: none.
+      /// Per base.uncertain: true where the effect sets the same key (a
+      /// case's [uncertain] second mode and reed_second_mode): the effect's
+      /// value wins, and the baseline parameter is neither fitted nor
+      /// applied. Empty: none.
       std::vector<bool>               superseded;
 
       /// An evaluator with every [uncertain] parameter free, starting at the case's values.
@@ -125,7 +125,9 @@ namespace rectify::diagnosis
       bool is_superseded(std::size_t j) const { return j < superseded.size() && superseded[j]; }
 
       /// The candidate `e` (null: none) in this evaluator's space: the
-      /// [uncertain] parameters it sets itself leave the free set.
+      /// [uncertain] parameters it sets itself leave the free set. Called
+      /// on the baseline's evaluator (or a copy of it), whose free set
+      /// has none superseded.
       void use_effect(const Effect *e)
       {
         effect = e;
@@ -219,7 +221,7 @@ namespace rectify::diagnosis
         for (std::size_t j = 0; j < base.uncertain.size(); ++j)
           if (!is_superseded(j))
             *p.real_field(base.uncertain[j].table, base.uncertain[j].key) =
-            uncertain_from_unit(base.uncertain[j], w[j]);
+              uncertain_from_unit(base.uncertain[j], w[j]);
         if (effect)
           effect->apply(values(u), p);
         p.transducer.piezomagnetic_coefficient_m_per_A *= gain(u);
@@ -2036,8 +2038,8 @@ namespace rectify::diagnosis
             const auto e = find_effect(rr.effect);
             e->apply(rr.values, base);
             named.push_back(rr.effect);
-            // an [uncertain] parameter the effect has set (the calibrated
-            // second mode, once reed_second_mode is named) is the effect's now
+            // an [uncertain] parameter the effect has set (a case's second
+            // mode, once reed_second_mode is named) is the effect's now
             std::erase_if(base.uncertain, [&](const system::UncertainParameter &q) {
               return std::any_of(e->parameters().begin(), e->parameters().end(),
                                  [&](const EffectParameter &par) { return par.table == q.table && par.key == q.key; });
