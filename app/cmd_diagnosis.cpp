@@ -231,10 +231,9 @@ namespace rectify::app
               entries.push_back({k.table, k.key, k.value, "rectify diagnose: " + rr.effect});
             // a key the case declares [uncertain] that the effect now sets
             // (a second mode): its range no longer holds the effect's value
-            for (const auto &spec : e->parameters())
-              if (std::any_of(p.uncertain.begin(), p.uncertain.end(),
-                              [&](const auto &q) { return q.table == spec.table && q.key == spec.key; }))
-                entries.push_back({"uncertain", spec.table + "." + spec.key, "",
+            for (const auto &q : p.uncertain)
+              if (e->sets(q.table, q.key))
+                entries.push_back({"uncertain", q.name(), "",
                                    "rectify diagnose: set by " + rr.effect + " (fitted), no longer a baseline parameter"});
           }
       const bool second_mode_named = std::any_of(entries.begin(), entries.end(), [](const auto &e) {

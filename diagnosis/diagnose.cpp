@@ -132,21 +132,17 @@ namespace rectify::diagnosis
       {
         effect = e;
         superseded.assign(base.uncertain.size(), false);
-        if (e)
-          for (std::size_t j = 0; j < base.uncertain.size(); ++j)
-            for (const auto &par : e->parameters())
-              if (par.table == base.uncertain[j].table && par.key == base.uncertain[j].key)
-                superseded[j] = true;
+        for (std::size_t j = 0; e && j < base.uncertain.size(); ++j)
+          superseded[j] = e->sets(base.uncertain[j].table, base.uncertain[j].key);
         std::vector<std::size_t> kept;
-        std::vector<double>      start;
+        std::vector<double>      start; // nuisance_start: one per free parameter, then the gain's
         for (std::size_t i = 0; i < free.size(); ++i)
           if (!is_superseded(free[i]))
             {
               kept.push_back(free[i]);
-              if (i < nuisance_start.size())
-                start.push_back(nuisance_start[i]);
+              start.push_back(nuisance_start[i]);
             }
-        start.push_back(nuisance_start.empty() ? 0.5 : nuisance_start.back());
+        start.push_back(nuisance_start.back());
         free           = kept;
         nuisance_start = start;
       }
@@ -2040,10 +2036,7 @@ namespace rectify::diagnosis
             named.push_back(rr.effect);
             // an [uncertain] parameter the effect has set (a case's second
             // mode, once reed_second_mode is named) is the effect's now
-            std::erase_if(base.uncertain, [&](const system::UncertainParameter &q) {
-              return std::any_of(e->parameters().begin(), e->parameters().end(),
-                                 [&](const EffectParameter &par) { return par.table == q.table && par.key == q.key; });
-            });
+            std::erase_if(base.uncertain, [&](const system::UncertainParameter &q) { return e->sets(q.table, q.key); });
           }
         if (round == 0)
           baseline_prediction = predictions[0];

@@ -44,6 +44,12 @@ namespace rectify::diagnosis
     apply_(values, p);
   }
 
+  bool Effect::sets(const std::string &table, const std::string &key) const
+  {
+    return std::any_of(parameters_.begin(), parameters_.end(),
+                       [&](const EffectParameter &p) { return p.table == table && p.key == key; });
+  }
+
   std::string Effect::not_testable(const RunTraits &) const { return {}; }
 
   std::shared_ptr<const Effect> find_effect(const std::string &name)

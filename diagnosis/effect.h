@@ -87,6 +87,9 @@ namespace rectify::diagnosis
     const std::vector<FixedKey>        &fixed_keys() const { return fixed_keys_; }
     /// The combined quantity, or null when the effect declares none.
     const Combination *combination() const { return combination_.value ? &combination_ : nullptr; }
+    /// Whether one of its parameters is [table] key (an [uncertain] baseline
+    /// parameter it then supersedes).
+    bool sets(const std::string &table, const std::string &key) const;
     /// Sets the effect's keys in `p` to `values` (one per parameter).
     void apply(std::span<const double> values, system::SystemParameters &p) const;
     /// Empty if the effect can show in runs like `traits`, else why not

@@ -435,6 +435,21 @@ TEST(Diagnosis, NewCaseFileSetsTheEffectKeysAndResolvesPaths)
   const auto ref = system::SystemParameters::from_case(CaseFile::load(reference_case_path()));
   EXPECT_EQ(p.transducer.coil_turns, ref.transducer.coil_turns);
   EXPECT_EQ(p.fluid.bias_pressure_Pa, ref.fluid.bias_pressure_Pa);
+
+  // an entry without a value comments the original's line out (a quoted
+  // [uncertain] key too); one the file lacks adds nothing
+  const std::string cut = edit_case_text(text, dir,
+                                         {{"uncertain", "lines.diameter_m", "", "gone"},
+                                          {"uncertain", "reed.no_such_key", "", "gone"},
+                                          {"valves", "leak_area_m2", "", "gone"}});
+  EXPECT_NE(cut.find("\n# \"lines.diameter_m\" = ["), std::string::npos) << cut;
+  EXPECT_NE(cut.find("\n# leak_area_m2 = 0.0"), std::string::npos);
+  EXPECT_EQ(cut.find("no_such_key"), std::string::npos);
+  const auto q = system::SystemParameters::from_case(CaseFile::parse(cut, "cut.toml", dir));
+  EXPECT_EQ(q.uncertain.size(), ref.uncertain.size() - 1);
+  for (const auto &u : q.uncertain)
+    EXPECT_NE(u.name(), "lines.diameter_m");
+  EXPECT_EQ(q.valves.leak_area_m2, 0.0); // the default: the key is gone, not changed
 }
 
 TEST(Diagnosis, LocalisationFindsTheCycleHalfAndTheHarmonic)
