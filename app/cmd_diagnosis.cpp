@@ -399,8 +399,13 @@ namespace rectify::app
           {
             md += "\n## The baseline, calibrated before naming anything\n\nFitted with `none` (every [uncertain] "
                   "parameter and the force gain); a parameter the data do not determine (standard error above " +
-                  sci(o.options.identifiability_sd) + " of its range) is held at this fit for every candidate.\n\n"
-                  "| parameter | case | fitted | bounds | standard error / range | identifiable | note |\n"
+                  sci(o.options.identifiability_sd) +
+                  " of its range) is held at this fit for every candidate. The standard error counts every compared "
+                  "sample as independent; counted per independent value of the band, as the named parameter's is, it "
+                  "would be about sqrt(n / independent values) larger (here " +
+                  sci(std::sqrt(1.0 / std::max(mean_band_fraction(runs), 1e-12))) + "x).\n\n"
+                  "| parameter | case | fitted | bounds | standard error / range (samples as independent) | identifiable "
+                  "| note |\n"
                   "|---|---|---|---|---|---|---|\n";
             for (const auto &b : result.rounds.front().baseline_check)
               md += "| " + b.name + " | " + sci(b.nominal) + " | " + sci(b.value) + " | " + sci(b.lower) + " .. " +
@@ -574,7 +579,8 @@ namespace rectify::app
         ->check(CLI::Range(0.0, 0.5))
         ->capture_default_str();
       cmd->add_option("--identifiability-sd", o->options.identifiability_sd,
-                      "a baseline parameter whose standard error exceeds this share of its range is held")
+                      "a baseline parameter whose standard error (every compared sample counted as "
+                      "independent) exceeds this share of its range is held")
         ->check(CLI::Range(0.001, 1.0))
         ->capture_default_str();
       cmd->add_option("--determined-sd", o->options.determined_relative_sd,

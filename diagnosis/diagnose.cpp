@@ -257,10 +257,7 @@ namespace rectify::diagnosis
     /// about n x (the band's share of the Nyquist band) independent values.
     double independent_values(const std::vector<RunCase> &runs, std::size_t n)
     {
-      double fraction = 0;
-      for (const auto &rc : runs)
-        fraction += rc.band_fraction / static_cast<double>(runs.size());
-      return std::max(1.0, static_cast<double>(n) * fraction);
+      return std::max(1.0, static_cast<double>(n) * mean_band_fraction(runs));
     }
 
     struct Objective
@@ -874,6 +871,14 @@ namespace rectify::diagnosis
   }
 
 
+  double mean_band_fraction(const std::vector<RunCase> &runs)
+  {
+    double fraction = 0;
+    for (const auto &rc : runs)
+      fraction += rc.band_fraction / static_cast<double>(runs.size());
+    return fraction;
+  }
+
   double band_reed_frequency_Hz(const system::SystemParameters &p, system::Scenario scenario,
                                 const DiagnoseOptions &options)
   {
@@ -923,7 +928,7 @@ namespace rectify::diagnosis
   {
     RunCase rc;
     if (repair_outliers)
-      rc.outliers = run.repair_outliers();
+      rc.outliers = run.repair_outliers(6.0, frequency_Hz);
     const double f = frequency_Hz > 0 ? frequency_Hz : run.drive_frequency_Hz();
     for (const auto &c : signal_columns())
       if (run.has(c))
@@ -2290,6 +2295,12 @@ namespace rectify::diagnosis
                "step over the square root of the evidence against it, the larger side (null: a side fits as "
                "well, more than the step); one_standard_error: the value that far down and up (null on a side "
                "that fits as well)"},
+              {"standard_error_of_range",
+               "a baseline parameter's standard error at the baseline fit (Gauss-Newton, Jacobian by forward "
+               "differences) as a share of its range (log range where log-scaled), counting every compared "
+               "sample as independent (s2 = SSR / n): smaller than the error per independent value of the band "
+               "by sqrt(n / independent values), about 3x within 10 harmonics at 200 samples per cycle, 5x "
+               "within 3; the identifiability limit (identifiability_sd) applies to this number"},
               {"local_relative_standard_error",
                "the same from the fit's covariance (Jacobian by forward differences, the residual's variance "
                "per independent value of the compared band) with every [uncertain] baseline parameter and the "

@@ -273,6 +273,11 @@ namespace rectify::diagnosis
                         double training_fraction, bool repair_outliers = true, double harmonics = 0,
                         double reed_frequency_Hz = 0);
 
+  /// The runs' mean share of the white noise's power inside the compared
+  /// band: n band-limited samples carry about n x this many independent
+  /// values (the BIC's count, the named parameter's standard error).
+  double mean_band_fraction(const std::vector<RunCase> &runs);
+
   /// The reed frequency make_run_case limits the band with: the outlet
   /// reed's natural frequency for a loaded run with options.harmonics_auto,
   /// else 0 (no limit).

@@ -179,8 +179,20 @@ namespace rectify::diagnosis
     return parse(s.str(), path.string(), frequency_Hz, min_cycles);
   }
 
-  std::vector<Outlier> MeasuredRun::repair_outliers(double threshold)
+  std::vector<Outlier> MeasuredRun::repair_outliers(double threshold, double frequency_Hz)
   {
+    // samples per pumping cycle, for the test of recurrence below (0: none)
+    double period = 0;
+    if (uniformly_sampled(time_s) && time_s.size() > 1)
+      try
+        {
+          const double f = frequency_Hz > 0 ? frequency_Hz : drive_frequency_Hz();
+          period = static_cast<double>(time_s.size() - 1) / (duration_s() * f);
+        }
+      catch (const InputError &)
+        {
+          period = 0; // fewer than two cycles: nothing to recur in
+        }
     std::vector<Outlier> found;
     for (auto &entry : signals)
       {
@@ -191,8 +203,41 @@ namespace rectify::diagnosis
         const double sd = white_noise_sd(x);
         if (!(sd > 0))
           continue;
-        const double limit  = threshold * std::sqrt(1.5) * sd;
-        const auto   offset = [&](std::size_t k) { return x[k] - 0.5 * (x[k - 1] + x[k + 1]); };
+        const double              limit    = threshold * std::sqrt(1.5) * sd;
+        const std::vector<double> original = x; // recurrence is judged on the record as measured
+        const auto offset_in = [](const std::vector<double> &y, std::size_t k) {
+          return y[k] - 0.5 * (y[k - 1] + y[k + 1]);
+        };
+        const auto offset = [&](std::size_t k) { return offset_in(x, k); };
+        // The same sharp feature at the same phase (one sample either way)
+        // in at least half of the record's other cycles: the pump's own (a
+        // pressure spike at each valve closing), not an outlier.
+        const auto recurs = [&](std::size_t k, double d) {
+          if (!(period >= 4))
+            return false;
+          const double last   = static_cast<double>(x.size()) - 4;
+          const auto   c_from = static_cast<long>(std::ceil((3 - static_cast<double>(k)) / period));
+          const auto   c_to   = static_cast<long>(std::floor((last - static_cast<double>(k)) / period));
+          int          looked = 0, seen = 0;
+          for (long c = c_from; c <= c_to; ++c)
+            {
+              const double at = static_cast<double>(k) + static_cast<double>(c) * period;
+              if (c == 0 || at < 3 || at > last)
+                continue;
+              const auto j = static_cast<std::size_t>(std::lround(at));
+              ++looked;
+              for (std::size_t i = j - 1; i <= j + 1; ++i)
+                {
+                  const double e = offset_in(original, i);
+                  if (e * d > 0 && std::abs(e) >= 0.5 * std::abs(d))
+                    {
+                      ++seen;
+                      break;
+                    }
+                }
+            }
+          return looked > 0 && 2 * seen >= looked;
+        };
         for (std::size_t k = 2; k + 2 < x.size(); ++k)
           {
             const double d = offset(k);
@@ -202,7 +247,7 @@ namespace rectify::diagnosis
             const auto   partner = [&](double e) {
               return e * d < 0 && std::abs(e) > 0.25 * std::abs(d) && std::abs(e) < 0.75 * std::abs(d);
             };
-            if (!partner(before) || !partner(after))
+            if (!partner(before) || !partner(after) || recurs(k, d))
               continue;
             found.push_back({column, k + 1, time_s[k] - time_s.front(), d, d / sd});
             x[k] = 0.5 * (x[k - 1] + x[k + 1]);

@@ -62,8 +62,14 @@ namespace rectify::diagnosis
     /// exceeds `threshold` standard deviations of d for the column's white
     /// noise (sd(d) = sqrt(1.5) sd), with both neighbours' offsets of the
     /// opposite sign and a quarter to three quarters of its size (the
-    /// pattern one displaced sample leaves; a kink or a step does not).
-    std::vector<Outlier> repair_outliers(double threshold = 6.0);
+    /// pattern one displaced sample leaves; a kink or a step does not). A
+    /// spike that recurs at the same phase of the pumping cycle (one sample
+    /// either way, the same sign, at least half its size) in at least half
+    /// of the record's other cycles is the pump's own (a pressure spike at
+    /// each valve closing) and is left alone. The cycle is `frequency_Hz`'s
+    /// (0: the drive's); a record not uniformly sampled or shorter than two
+    /// cycles is not tested for recurrence.
+    std::vector<Outlier> repair_outliers(double threshold = 6.0, double frequency_Hz = 0);
   };
 
   /// The signals a run can carry beside time and drive, in report order.

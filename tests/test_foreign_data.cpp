@@ -111,6 +111,43 @@ TEST(ForeignData, IsolatedSpikesAreFoundAndRepairedAndKinksAreLeftAlone)
     }
 }
 
+// A sharp feature at the same phase of every cycle (a pressure spike at each
+// valve closing, as in the bench's strongest orifice) has the shape of an
+// outlier, but it is the pump's: left alone, wherever the cycle's samples
+// fall (here one sample later in every other cycle). An outlier on top of
+// it (100x its size) and one elsewhere are still found.
+TEST(ForeignData, ASpikeAtTheSamePhaseOfEveryCycleIsThePumpsOwnNotAnOutlier)
+{
+  std::mt19937_64                  rng(11);
+  std::normal_distribution<double> noise(0.0, 1e4);
+  const double                     f = 100;
+  auto run = record(f, 16, [&](double t) {
+    const double phase = t * f - std::floor(t * f);
+    return 5e6 + (phase < 0.3 ? 1e7 * phase : 3e6 - 2e6 * (phase - 0.3)) + noise(rng);
+  });
+  auto &p = run.signals["outlet_pressure_Pa"];
+  for (std::size_t c = 0; c < 16; ++c)
+    p[120 + 200 * c + c % 2] += 1e5 * (1.0 + 0.1 * static_cast<double>(c % 3)); // 10-12 sd
+  const auto clean = p;
+  p[120 + 200 * 7 + 1] += 1e7; // on top of cycle 7's
+  p[2222] -= 1.2e5;
+  const auto found = run.repair_outliers(6.0, f);
+  ASSERT_EQ(found.size(), 2u);
+  EXPECT_EQ(found[0].row, 120u + 200 * 7 + 1 + 1);
+  EXPECT_EQ(found[1].row, 2223u);
+  for (std::size_t k = 0; k < p.size(); ++k)
+    if (k != 120 + 200 * 7 + 1 && k != 2222)
+      {
+        ASSERT_EQ(p[k], clean[k]) << "sample " << k << " changed";
+      }
+  // the pumping frequency from the drive gives the same
+  auto again = record(f, 16, [&](double t) { return 5e6 + 1e6 * std::sin(2 * pi * f * t) + noise(rng); });
+  auto &q    = again.signals["outlet_pressure_Pa"];
+  for (std::size_t c = 0; c < 16; ++c)
+    q[120 + 200 * c] += 2e6;
+  EXPECT_TRUE(again.repair_outliers().empty());
+}
+
 // The band the residual is compared in: every term of the record's cosine
 // series above the cutoff goes, every one below stays (exactly, for terms
 // that are cosines of whole cycles over the record).

@@ -71,8 +71,10 @@ NOMINAL = dict(
 # reed moves it either way.
 MODE2_RATIO = (5.6, 7.0)
 
-# Baseline parameters that the thesis does not give, with the ranges a user
-# would declare as uncertain (cases/foreign-bench.toml declares the same).
+# Baseline parameters that the thesis does not give, drawn per record in these
+# ranges. cases/reference.toml's [uncertain] table, which the study runs as a
+# user would, declares wider ones that contain each of these (the oil column
+# 0.005-0.3 m: a hose's volume on the high side included).
 RANGES = dict(
     line_d=(3.5e-3, 6.0e-3),        # all four lines' bore
     wet_l=(0.5 * IN, 2.5 * IN),      # output-cylinder oil column
