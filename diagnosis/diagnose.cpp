@@ -1250,6 +1250,21 @@ namespace rectify::diagnosis
       return d;
     }
 
+    /// `note`, and where the fit at position `unit` (of the declared range)
+    /// sits on one of its ends, that too: the data ask for more than the
+    /// range allows, which a missing effect does (a seal's compliance taken
+    /// by the oil column) as well as a range declared too narrow.
+    std::string with_bound_note(const std::string &note, double unit)
+    {
+      constexpr double at_end = 1e-3; // of the range
+      const char      *end    = unit >= 1.0 - at_end ? "upper" : unit <= at_end ? "lower" : nullptr;
+      if (!end)
+        return note;
+      return (note.empty() ? "" : note + "; ") + "at the " + end +
+             " end of its range: the data ask for a value beyond it (a missing effect can pull it there, or "
+             "the range is too narrow)";
+    }
+
     /// An [uncertain] parameter as reported: at position `unit`, its case
     /// value, range and standard error.
     BaselineParameter baseline_parameter(const system::SystemParameters &base, const system::UncertainParameter &q,
@@ -1263,7 +1278,7 @@ namespace rectify::diagnosis
       b.upper        = q.upper;
       b.sd_unit      = sd_unit;
       b.identifiable = identifiable;
-      b.note         = note;
+      b.note         = with_bound_note(note, unit);
       return b;
     }
 
@@ -1312,7 +1327,7 @@ namespace rectify::diagnosis
       g.upper        = 1.0 + ev.options.gain_range;
       g.sd_unit      = d.sd[m - 1];
       g.identifiable = d.active[m - 1];
-      g.note         = d.note[m - 1];
+      g.note         = with_bound_note(d.note[m - 1], u0[m - 1]);
       out.push_back(g);
       ev.free = still_free;
       start.push_back(u0[m - 1]); // the gain is always fitted: held ones only lose their freedom

@@ -479,6 +479,47 @@ TEST(ForeignData, AnUncertainBaselineIsCalibratedNotMistakenForAnEffect)
   EXPECT_GE(held, 1);
 }
 
+// A rig with more oil on the high side (a 0.061 m column) than the case's
+// declared ranges allow (column at most 0.04 m, area at most 1.4e-4 m^2):
+// the baseline fit pins the column at the top of its range, and the report
+// says so for it and for nothing that lies inside its range.
+TEST(ForeignData, ABaselineParameterFittedAtTheEndOfItsRangeIsReportedSo)
+{
+  const auto dir  = scratch("foreign_bound");
+  const auto rig  = write_rig(dir, {{"wetted_length_m = 0.0254", "wetted_length_m = 0.061"}});
+  auto       r    = rectify_cli("synth --case " + rig.string() +
+                                " --effect none --noise 0.01 --seed 5 --frequency 100 --cycles 12 --out " +
+                                (dir / "data").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::filesystem::create_directories(dir / "case");
+  const auto narrow = write_rig(dir / "case", {{"\"cylinder.wetted_length_m\" = [0.005, 0.3]",
+                                                "\"cylinder.wetted_length_m\" = [0.005, 0.04]"},
+                                               {"\"cylinder.piston_area_m2\" = [0.6e-4, 2.5e-4]",
+                                                "\"cylinder.piston_area_m2\" = [1.2e-4, 1.4e-4]"}});
+  const auto s = diagnose_summary(dir / "data" / "data.csv",
+                                  "--case " + narrow.string() + " --effects outlet_compliance --reed-second-mode case",
+                                  dir / "d");
+  ASSERT_FALSE(s.is_null());
+  bool column = false;
+  for (const auto &b : s["baseline_fit"])
+    {
+      const double v = b["fitted"].get<double>(), lo = b["bounds"][0].get<double>(), hi = b["bounds"][1].get<double>();
+      const auto   note = b["note"].get<std::string>();
+      // its position in the range as the fit sees it: the gain linear, the
+      // [uncertain] parameters logarithmic; the ends' last 1e-3 count
+      const double unit   = b["parameter"] == "force_gain" ? (v - lo) / (hi - lo) : std::log(v / lo) / std::log(hi / lo);
+      const bool   at_end = unit >= 1 - 1e-3 || unit <= 1e-3;
+      EXPECT_EQ(note.find("end of its range") != std::string::npos, at_end) << b.dump();
+      if (b["parameter"] == "cylinder.wetted_length_m")
+        {
+          column = true;
+          EXPECT_DOUBLE_EQ(v, 0.04) << b.dump();
+          EXPECT_NE(note.find("at the upper end of its range"), std::string::npos) << b.dump();
+        }
+    }
+  EXPECT_TRUE(column) << s["baseline_fit"].dump(1);
+}
+
 // A strong leak on a rig whose accumulator holds 3.0e-5 m^3 of gas, not the
 // case's 1.64e-5 (and whose lines' bore is 5.6 mm, not 4.57): the baseline
 // fit without the leak is hundreds of noise units off, which inflates every
