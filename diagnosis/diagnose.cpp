@@ -1251,9 +1251,9 @@ namespace rectify::diagnosis
     }
 
     /// `note`, and where the fit at position `unit` (of the declared range)
-    /// sits on one of its ends, that too: the data ask for more than the
-    /// range allows, which a missing effect does (a seal's compliance taken
-    /// by the oil column) as well as a range declared too narrow.
+    /// sits on one of its ends, that too: the data ask for a value beyond
+    /// it, which a missing effect does (a seal's compliance taken by the
+    /// oil column) as well as a range declared too narrow.
     std::string with_bound_note(const std::string &note, double unit)
     {
       constexpr double at_end = 1e-3; // of the range
