@@ -73,6 +73,23 @@ namespace
                                dir / "thesis-resistance.csv", std::filesystem::copy_options::overwrite_existing);
     return dir / "rig.toml";
   }
+
+  /// DIR/data/data.csv: `rectify synth` (no effect, 1 % noise, 100 Hz, 12
+  /// cycles, seed 5) of a rig whose oil column is 0.061 m, not the case's
+  /// 0.0254 m. Empty (with a test failure) if synth fails.
+  std::filesystem::path long_oil_column_record(const std::filesystem::path &dir)
+  {
+    const auto rig = write_rig(dir, {{"wetted_length_m = 0.0254", "wetted_length_m = 0.061"}});
+    const auto r   = rectify_cli("synth --case " + rig.string() +
+                                 " --effect none --noise 0.01 --seed 5 --frequency 100 --cycles 12 --out " +
+                                 (dir / "data").string());
+    if (r.exit_code != 0)
+      {
+        ADD_FAILURE() << r.output;
+        return {};
+      }
+    return dir / "data" / "data.csv";
+  }
 } // namespace
 
 // One displaced sample leaves the pattern +A, -A/2, -A/2 in the offsets from
@@ -458,12 +475,9 @@ TEST(ForeignData, ARecordFromMidOperationStartsFromItsPeriodicState)
 TEST(ForeignData, AnUncertainBaselineIsCalibratedNotMistakenForAnEffect)
 {
   const auto dir = scratch("foreign_baseline");
-  const auto rig = write_rig(dir, {{"wetted_length_m = 0.0254", "wetted_length_m = 0.061"}});
-  auto r = rectify_cli("synth --case " + rig.string() +
-                       " --effect none --noise 0.01 --seed 5 --frequency 100 --cycles 12 --out " +
-                       (dir / "data").string());
-  ASSERT_EQ(r.exit_code, 0) << r.output;
-  const auto s = diagnose_summary(dir / "data" / "data.csv",
+  const auto data = long_oil_column_record(dir);
+  ASSERT_FALSE(data.empty());
+  const auto s = diagnose_summary(data,
                                   "--effects valve_leakage outlet_compliance entrained_air --reed-second-mode case",
                                   dir / "d");
   ASSERT_FALSE(s.is_null());
@@ -486,17 +500,14 @@ TEST(ForeignData, AnUncertainBaselineIsCalibratedNotMistakenForAnEffect)
 TEST(ForeignData, ABaselineParameterFittedAtTheEndOfItsRangeIsReportedSo)
 {
   const auto dir  = scratch("foreign_bound");
-  const auto rig  = write_rig(dir, {{"wetted_length_m = 0.0254", "wetted_length_m = 0.061"}});
-  auto       r    = rectify_cli("synth --case " + rig.string() +
-                                " --effect none --noise 0.01 --seed 5 --frequency 100 --cycles 12 --out " +
-                                (dir / "data").string());
-  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto data = long_oil_column_record(dir);
+  ASSERT_FALSE(data.empty());
   std::filesystem::create_directories(dir / "case");
   const auto narrow = write_rig(dir / "case", {{"\"cylinder.wetted_length_m\" = [0.005, 0.3]",
                                                 "\"cylinder.wetted_length_m\" = [0.005, 0.04]"},
                                                {"\"cylinder.piston_area_m2\" = [0.6e-4, 2.5e-4]",
                                                 "\"cylinder.piston_area_m2\" = [1.2e-4, 1.4e-4]"}});
-  const auto s = diagnose_summary(dir / "data" / "data.csv",
+  const auto s = diagnose_summary(data,
                                   "--case " + narrow.string() + " --effects outlet_compliance --reed-second-mode case",
                                   dir / "d");
   ASSERT_FALSE(s.is_null());
