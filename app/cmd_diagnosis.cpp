@@ -403,7 +403,7 @@ namespace rectify::app
                   " of its range) is held at this fit for every candidate. The standard error counts every compared "
                   "sample as independent; counted per independent value of the band, as the named parameter's is, it "
                   "would be about sqrt(n / independent values) larger (here " +
-                  sci(std::sqrt(1.0 / std::max(mean_band_fraction(runs), 1e-12))) + "x).\n\n"
+                  sci(result.baseline_sd_factor) + "x).\n\n"
                   "| parameter | case | fitted | bounds | standard error / range (samples as independent) | identifiable "
                   "| note |\n"
                   "|---|---|---|---|---|---|---|\n";

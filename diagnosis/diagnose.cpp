@@ -253,6 +253,16 @@ namespace rectify::diagnosis
       }
     };
 
+    /// The runs' mean share of the white noise's power inside the compared
+    /// band (of the Nyquist band).
+    double mean_band_fraction(const std::vector<RunCase> &runs)
+    {
+      double fraction = 0;
+      for (const auto &rc : runs)
+        fraction += rc.band_fraction / static_cast<double>(runs.size());
+      return fraction;
+    }
+
     /// Band-limited residuals are correlated: n samples of the runs carry
     /// about n x (the band's share of the Nyquist band) independent values.
     double independent_values(const std::vector<RunCase> &runs, std::size_t n)
@@ -870,14 +880,6 @@ namespace rectify::diagnosis
     return so;
   }
 
-
-  double mean_band_fraction(const std::vector<RunCase> &runs)
-  {
-    double fraction = 0;
-    for (const auto &rc : runs)
-      fraction += rc.band_fraction / static_cast<double>(runs.size());
-    return fraction;
-  }
 
   double band_reed_frequency_Hz(const system::SystemParameters &p, system::Scenario scenario,
                                 const DiagnoseOptions &options)
@@ -2067,6 +2069,7 @@ namespace rectify::diagnosis
     result.after            = current;
     result.residual_before  = pooled_norms(runs, result.before, false);
     result.residual_after   = pooled_norms(runs, result.after, false);
+    result.baseline_sd_factor = std::sqrt(1.0 / std::max(mean_band_fraction(runs), 1e-12));
     // The verdict, honestly: how much of the gap above the noise that the
     // baseline fit leaves does the named effect close, and what is left.
     {
@@ -2285,6 +2288,7 @@ namespace rectify::diagnosis
             {"verdict_sentence", r.verdict_sentence},
             {"explained_fraction", r.explained_fraction},
             {"residual_baseline_fit", r.residual_baseline},
+            {"baseline_standard_error_factor", r.baseline_sd_factor},
             {"baseline", first.baseline},
             {"baseline_fit", rounds.front()["baseline_fit"]},
             {"freed_at_the_named_fit", rounds.front()["freed_at_the_named_fit"]},
@@ -2316,6 +2320,9 @@ namespace rectify::diagnosis
                "sample as independent (s2 = SSR / n): smaller than the error per independent value of the band "
                "by sqrt(n / independent values), about 3x within 10 harmonics at 200 samples per cycle, 5x "
                "within 3; the identifiability limit (identifiability_sd) applies to this number"},
+              {"baseline_standard_error_factor",
+               "sqrt(n / independent values of the compared band): a baseline parameter's standard error counted "
+               "per independent value is standard_error_of_range times this"},
               {"local_relative_standard_error",
                "the same from the fit's covariance (Jacobian by forward differences, the residual's variance "
                "per independent value of the compared band) with every [uncertain] baseline parameter and the "

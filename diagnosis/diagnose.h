@@ -257,6 +257,10 @@ namespace rectify::diagnosis
     std::string               verdict_sentence;
     double                    explained_fraction = 0; ///< of the gap above the noise left by the baseline fit
     double                    residual_baseline  = 0; ///< overall, the baseline fit (none), noise units
+    /// sqrt(n / independent values of the compared band): how much larger a
+    /// baseline parameter's standard error (samples counted as independent,
+    /// BaselineParameter::sd_unit) is when counted per independent value.
+    double                    baseline_sd_factor = 1;
     double                    wall_time_s = 0;
   };
 
@@ -272,11 +276,6 @@ namespace rectify::diagnosis
   RunCase make_run_case(MeasuredRun run, system::Scenario scenario, double frequency_Hz,
                         double training_fraction, bool repair_outliers = true, double harmonics = 0,
                         double reed_frequency_Hz = 0);
-
-  /// The runs' mean share of the white noise's power inside the compared
-  /// band: n band-limited samples carry about n x this many independent
-  /// values (the BIC's count, the named parameter's standard error).
-  double mean_band_fraction(const std::vector<RunCase> &runs);
 
   /// The reed frequency make_run_case limits the band with: the outlet
   /// reed's natural frequency for a loaded run with options.harmonics_auto,

@@ -529,6 +529,11 @@ TEST(ForeignData, ABaselineParameterFittedAtTheEndOfItsRangeIsReportedSo)
         }
     }
   EXPECT_TRUE(column) << s["baseline_fit"].dump(1);
+  // within 10 harmonics of 100 Hz (to 1050 Hz) at 200 samples per cycle (a
+  // Nyquist band of 10 kHz): the standard error per independent value is
+  // sqrt(10000 / 1050) times the one printed
+  EXPECT_NEAR(s["baseline_standard_error_factor"].get<double>(), std::sqrt(10000.0 / 1050.0), 1e-3)
+    << s["localisation"][0]["band_Hz"];
 }
 
 // A strong leak on a rig whose accumulator holds 3.0e-5 m^3 of gas, not the
