@@ -5,6 +5,7 @@
   /usr/bin/python3 bench/foreign/make_record.py --effect valve_leakage --seed 7 --out DIR
       [--scenario no-flow|loaded] [--frequency 100] [--cycles 16] [--value V]
       [--start rest|static|mid|random] [--noise 0.01] [--no-sensor-effects] [--nominal] [--current-pp 8]
+      [--without junction|second-mode-draw|seat|passage ...]
 
 Everything not given is drawn from the seed: the baseline parameters inside
 pump.RANGES (log-uniform), the effect's parameter inside pump.EFFECTS, the
@@ -19,6 +20,17 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import pump as bench  # noqa: E402
 
+
+# --without: the bench's differences from rectify's model, each taken
+# (almost) away: the inlet junction's oil to 1/100, the second mode at a
+# uniform cantilever's 6.267 x the first (drawn as before, then replaced),
+# the seat 10x stiffer, the 1 cm outlet passage's inertance to 1/100
+WITHOUT = {
+    "junction": {"junction_volume_factor": 0.01},
+    "second-mode-draw": {"mode2_ratio": 6.267},
+    "seat": {"seat_stiffness_factor": 10.0},
+    "passage": {"outlet_passage_inertance_factor": 0.01},
+}
 
 def log_uniform(rng, lo, hi):
     return math.exp(rng.uniform(math.log(lo), math.log(hi)))
@@ -56,6 +68,10 @@ def main():
                          "whatever is left out, so one seed gives the same record less those parts; "
                          "--no-sensor-effects overrides it)")
     ap.add_argument("--nominal", action="store_true", help="baseline at the case's values (no random draws)")
+    ap.add_argument("--without", action="append", default=[], choices=sorted(WITHOUT),
+                    help="one of the bench's differences from rectify's model taken (almost) away, to find which "
+                         "sets a residual (docs/diagnosis.md, twenty-fourth stop); every draw stays the seed's. "
+                         "Repeatable")
     ap.add_argument("--out", required=True)
     a = ap.parse_args()
 
@@ -83,6 +99,13 @@ def main():
     if not a.nominal:
         P["mode2_ratio"] = float(np.random.default_rng([a.seed, 2]).uniform(*bench.MODE2_RATIO))
     baseline["mode2_ratio"] = P["mode2_ratio"]
+    if "passage" in a.without and a.effect == "line_inertance":
+        ap.error("--without passage: the hose of line_inertance replaces the passage")
+    for w in a.without:
+        P.update(WITHOUT[w])
+    baseline["mode2_ratio"] = P["mode2_ratio"]
+    if a.without:
+        truth["without"] = sorted(a.without)
     value = None
     air_law = "polytropic"
     if a.effect != "none":

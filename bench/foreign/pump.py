@@ -152,14 +152,14 @@ class Pump:
         self.k_r2 = p["m_r"] * (2 * math.pi * self.f2) ** 2
         self.b_r1 = 2 * p["zeta_r"] * math.sqrt(self.k_r1 * p["m_r"])
         self.b_r2 = 2 * p["zeta_r"] * math.sqrt(self.k_r2 * p["m_r"])
-        self.k_seat = 1e5 * p["k_r"]  # 60 nm under a 40 N closing force
+        self.k_seat = p.get("seat_stiffness_factor", 1.0) * 1e5 * p["k_r"]  # 60 nm under a 40 N closing force
         self.b_seat = 2.0 * math.sqrt(self.k_seat * p["m_r"])
         # volumes and compliances
         self.V_ch = p["A_pi"] * p["h_ch"]
         self.V_h = p["A_po"] * p["xi_h"] * p["wet_l"]
         self.V_l = p["A_po"] * (1 - p["xi_h"]) * p["wet_l"]
         self.C_acc = p["V_gas"] / p["p_bias"]
-        self.V_j = 0.2e-6  # the inlet passages' junction: 0.2 cm^3 of oil
+        self.V_j = p.get("junction_volume_factor", 1.0) * 0.2e-6  # the inlet passages' junction: 0.2 cm^3 of oil
         # lines: Poiseuille resistance, the outlet line distributed
         R_line = lambda d, l: 128 * p["mu"] * l / (math.pi * d**4)
         self.R4 = self.R5 = self.R6 = R_line(p["line_d"], p["line_l"])
@@ -167,6 +167,8 @@ class Pump:
         area = math.pi * d_out**2 / 4
         self.R_out = R_line(d_out, l_out)
         self.L_out = 4.0 / 3.0 * p["rho"] * l_out / area  # laminar profile: 4/3 of rho l / A
+        if effect != "line_inertance":  # make_record --without passage (a hose replaces the passage)
+            self.L_out *= p.get("outlet_passage_inertance_factor", 1.0)
         self.V_line = area * l_out
         if effect == "line_inertance":
             # a hose of the same bore, as long as the given inertance makes it:
