@@ -98,7 +98,6 @@ def main():
     # draw above and below stays what it was before it was drawn
     if not a.nominal:
         P["mode2_ratio"] = float(np.random.default_rng([a.seed, 2]).uniform(*bench.MODE2_RATIO))
-    baseline["mode2_ratio"] = P["mode2_ratio"]
     if "passage" in a.without and a.effect == "line_inertance":
         ap.error("--without passage: the hose of line_inertance replaces the passage")
     for w in a.without:

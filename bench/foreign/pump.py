@@ -167,8 +167,6 @@ class Pump:
         area = math.pi * d_out**2 / 4
         self.R_out = R_line(d_out, l_out)
         self.L_out = 4.0 / 3.0 * p["rho"] * l_out / area  # laminar profile: 4/3 of rho l / A
-        if effect != "line_inertance":  # make_record --without passage (a hose replaces the passage)
-            self.L_out *= p.get("outlet_passage_inertance_factor", 1.0)
         self.V_line = area * l_out
         if effect == "line_inertance":
             # a hose of the same bore, as long as the given inertance makes it:
@@ -178,6 +176,8 @@ class Pump:
             self.R_out *= scale
             self.V_line *= scale
             l_out *= scale
+        else:  # the 1 cm passage (make_record --without passage scales its inertance)
+            self.L_out *= p.get("outlet_passage_inertance_factor", 1.0)
         self.N_SEG = max(self.MIN_SEG, math.ceil(l_out / self.SEG_LENGTH - 1e-9))
         self.A_port = p["A_r"]
         self.perimeter = 2 * math.sqrt(math.pi * p["A_r"])
