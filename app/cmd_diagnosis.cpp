@@ -461,6 +461,12 @@ namespace rectify::app
                         "effect's fit (standard error " + sci(b.sd_unit) + " of its range" +
                         (b.note.empty() ? "" : "; " + b.note) + "); refitted from the case's " + sci(b.nominal) +
                         " to " + sci(rr.baseline.count(b.name) ? rr.baseline.at(b.name) : b.value) + "\n";
+                for (const auto &b : rr.left_out)
+                  md += "- `" + b.name + "`, which the case leaves out (0), tried on at this effect's settled fit: " +
+                        (b.value != 0.0 ? "on, refitted to " +
+                                            sci(rr.baseline.count(b.name) ? rr.baseline.at(b.name) : b.value)
+                                        : std::string("off")) +
+                        " (" + b.note + ")\n";
               }
             md += "- force gain (nuisance): " + sci(rr.force_gain) + "\n- evidence: " + rr.decision + "\n\n";
             md += "| candidate | k | BIC - BIC(none) | AIC | RMS train | RMS held-out | parameters |\n|---|---|---|---|---|---|---|\n";

@@ -226,6 +226,9 @@ namespace rectify::diagnosis
     std::vector<BaselineParameter> baseline_check; ///< the baseline fit and identifiability
     /// held at the baseline fit, determined at the named effect's fit: freed for its refits
     std::vector<BaselineParameter> freed;
+    /// [uncertain] parameters the case leaves out (0), tried on again at
+    /// the named effect's settled fit: on (fitted value) or off (0)
+    std::vector<BaselineParameter> left_out;
     double                       confidence = 0; ///< BIC weight of the named candidate
     std::string                  decision;       ///< the reasoning in words
     std::vector<CandidateResult> candidates;
@@ -265,7 +268,8 @@ namespace rectify::diagnosis
   };
 
   /// An [uncertain] parameter <-> its position in [0, 1] (log over its
-  /// bounds); the value always lies within its bounds.
+  /// bounds); the value always lies within its bounds, or is 0 at
+  /// position 0 for one the case leaves out (off_at_zero).
   double uncertain_from_unit(const system::UncertainParameter &q, double u);
   double uncertain_to_unit(const system::UncertainParameter &q, double v);
 

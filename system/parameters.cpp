@@ -338,14 +338,18 @@ namespace rectify::system
         const auto range = f.reals("uncertain", name, {}, Bounds::positive());
         if (range.size() != 2 || !(range[0] < range[1]))
           throw InputError(where + ": expected [lower, upper] with 0 < lower < upper");
-        if (!(*field >= range[0] && *field <= range[1]))
+        // 0 is a value the case leaves out (the thesis's model has no such
+        // term, e.g. the outlet passage's inertance): the data may still
+        // ask for one inside the range (UncertainParameter::off_at_zero)
+        if (!(*field >= range[0] && *field <= range[1]) && *field != 0.0)
           throw InputError(where + " = [" + format_number(range[0]) + ", " + format_number(range[1]) +
                            "]: the case's own value " + format_number(*field) + " lies outside");
         for (const auto &other : p.uncertain)
           if (other.name() == name)
             throw InputError(where + ": given twice");
-        u.lower = range[0];
-        u.upper = range[1];
+        u.lower       = range[0];
+        u.upper       = range[1];
+        u.off_at_zero = *field == 0.0;
         p.uncertain.push_back(u);
       }
   }

@@ -131,14 +131,18 @@ namespace rectify::system
     /// (laminar), which also adds its resistance and oil (ModelConstants);
     /// 0 for none (the thesis neglects it).
     double outlet_inertance_Pa_s2_per_m3 = 0.0;
-    /// That added line as this many lumped pi sections in a chain (12, the
-    /// default: a distributed line that carries its waves, its lowest
-    /// three modes within 0.3, 1.1 and 2.3 % of a continuous line's; 6
-    /// sections put the second 4 % low, which a bench's hose showed; 1: one
-    /// lumped section, whose lowest rings 34 % low). Not a length-based count: a fit of L or of the bore would
-    /// jump where the count changes (docs/diagnosis.md, "A distributed
-    /// outlet line").
-    long outlet_line_segments = 12;
+    /// That added line as this many lumped pi sections in a chain. 1, the
+    /// default: a short line, the pump body's outlet passage (a few cm, an
+    /// [uncertain] baseline parameter of the reference case), whose
+    /// ringing lies far above the pumping harmonics. A hose needs 12 (the
+    /// diagnosis effect `line_inertance` sets them): a distributed line
+    /// that carries its waves, its lowest three modes within 0.3, 1.1 and
+    /// 2.3 % of a continuous line's; 6 sections put the second 4 % low,
+    /// which a bench's hose showed; one section's lowest rings 34 % low.
+    /// Not a length-based count: a fit of L or of the bore would jump
+    /// where the count changes (docs/diagnosis.md, "A distributed outlet
+    /// line").
+    long outlet_line_segments = 1;
     static LineParameters from_case(const CaseFile &file);
   };
 
@@ -212,6 +216,11 @@ namespace rectify::system
   {
     std::string table, key;
     double      lower = 0, upper = 0;
+    /// The case leaves it out (its value 0, e.g. the outlet passage's
+    /// inertance, which the thesis's model has none of): the fit's
+    /// position 0 is the parameter off (0), as the case has it, and
+    /// (0, 1] the range, so a record without it is still fitted exactly.
+    bool off_at_zero = false;
     std::string name() const { return table + "." + key; }
   };
 

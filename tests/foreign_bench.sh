@@ -22,8 +22,15 @@
 # turbulent leak of 1.0e-7 m^2 in a record from mid-operation at 100 Hz),
 # whose start every start scores alike with the case's baseline: the start
 # is chosen again with the named leak, and what remains is within 2 noise
-# units.
-#   tests/foreign_bench.sh RECTIFY SOURCE_DIR SCRATCH_DIR [laminar|turbulent|line|line-short|mid-start]
+# units. Form `passage`: the study's coil_dynamics-1 (a coil of 1.37 mH,
+# voltage drive, no-flow at 100 Hz from rest), whose residual after the
+# coil stayed at 2.9 noise units while the bench's 1 cm outlet passage
+# (which the reference case leaves out) was missing from the model: the
+# passage, declared uncertain (the reference case's opt-in line), is tried
+# on at the coil's fit and kept, within a factor 1.5 of the
+# bench's 4/3 rho l / A (the model's one lumped section stands for the
+# bench's distributed passage), and at most 2 noise units remain.
+#   tests/foreign_bench.sh RECTIFY SOURCE_DIR SCRATCH_DIR [laminar|turbulent|line|line-short|mid-start|passage]
 set -euo pipefail
 rectify=$1 src=$2 out=$3 form=${4:-laminar}
 max_residual=1e9 min_explained=0.8
@@ -39,18 +46,30 @@ case "$form" in
     record_args=(--seed 14184 --cycles 16) ;; # the study's line_inertance-2
   mid-start) effect=valve_leakage_turbulent key=leak_area_m2 max_residual=2
     record_args=(--seed 33522 --cycles 16) ;; # the study's draws, as study.py makes them: no-flow, 100 Hz, mid
+  passage) effect=coil_dynamics key=coil_inductance_H max_residual=2
+    record_args=(--seed 12736 --cycles 16) ;; # the study's coil_dynamics-1
   *) echo "unknown form '$form'" >&2; exit 2 ;;
 esac
 py=python3
 [ -x /usr/bin/python3 ] && py=/usr/bin/python3
 rm -rf "$out" && mkdir -p "$out"
 "$py" "$src/bench/foreign/make_record.py" --effect "$effect" "${record_args[@]}" --out "$out/record"
-"$rectify" diagnose --data "$out/record/data.csv" --out "$out/d" > "$out/diagnose.log" 2>&1 ||
+case_args=()
+if [ "$form" = passage ]; then  # the reference case with its opt-in outlet passage
+  line='"lines.outlet_inertance_Pa_s2_per_m3" = [1e5, 5e6]'
+  grep -qF "# $line" "$src/cases/reference.toml" || { echo "no opt-in passage line in the reference case" >&2; exit 1; }
+  mkdir -p "$out/case" && cp "$src/cases/thesis-resistance.csv" "$out/case/"
+  text=$(cat "$src/cases/reference.toml")
+  printf '%s\n' "${text/"# $line"/"$line"}" > "$out/case/passage.toml"
+  case_args=(--case "$out/case/passage.toml")
+fi
+"$rectify" diagnose --data "$out/record/data.csv" --out "$out/d" "${case_args[@]}" > "$out/diagnose.log" 2>&1 ||
   { cat "$out/diagnose.log"; exit 1; }
-"$py" - "$out" "$effect" "$key" "$max_residual" "$min_explained" <<'PY'
-import json, sys
+"$py" - "$out" "$effect" "$key" "$max_residual" "$min_explained" "$form" "$src" <<'PY'
+import json, math, sys
 out, effect, key = sys.argv[1:4]
 max_residual, min_explained = float(sys.argv[4]), float(sys.argv[5])
+form, src = sys.argv[6:8]
 s = json.load(open(f"{out}/d/summary.json"))
 t = json.load(open(f"{out}/record/truth.json"))
 v = s["parameters"].get(key)
@@ -67,5 +86,14 @@ if t["start"] != "rest":  # a record from mid-operation is not simulated from re
     ok = ok and s["localisation"][0]["start"] != "rest"
 print("residual after", s["residual_after"]["overall"], "noise units (at most", max_residual, ")")
 ok = ok and s["residual_after"]["overall"] <= max_residual
+if form == "passage":  # the outlet passage, tried on at the named fit and kept near the bench's
+    sys.path.insert(0, f"{src}/bench/foreign")
+    import pump
+    n = pump.NOMINAL
+    bench = 4 / 3 * n["rho"] * n["outlet_line_l"] / (math.pi * t["baseline"]["line_d"] ** 2 / 4)
+    tried = [b for b in s["left_out_tried_at_the_named_fit"] if b["parameter"] == "lines.outlet_inertance_Pa_s2_per_m3"]
+    fitted = s["baseline"]["lines.outlet_inertance_Pa_s2_per_m3"]
+    print("outlet passage", fitted, "bench", bench, tried)
+    ok = ok and len(tried) == 1 and tried[0]["on"] and abs(math.log(fitted / bench)) < math.log(1.5)
 sys.exit(0 if ok else 1)
 PY

@@ -410,6 +410,27 @@ TEST(Diagnosis, EveryEffectsRangeReachesNoEffect)
     }
 }
 
+// The reference case's own added line is the pump's outlet passage (a few
+// cm, one lumped pi section, uncertain); the effect line_inertance is a
+// hose, which carries its waves in 12 sections whatever the case gives its
+// passage, and says so in the new case file (a fixed key).
+TEST(Diagnosis, LineInertanceIsAHoseInTwelveSectionsWhateverTheCaseGivesItsPassage)
+{
+  auto p = system::SystemParameters::from_case(CaseFile::load(reference_case_path()));
+  EXPECT_EQ(p.lines.outlet_line_segments, 1);
+  EXPECT_EQ(p.lines.outlet_inertance_Pa_s2_per_m3, 0.0);
+  const auto line = find_effect("line_inertance");
+  line->apply(std::vector<double>{3e7}, p);
+  EXPECT_EQ(p.lines.outlet_inertance_Pa_s2_per_m3, 3e7);
+  EXPECT_EQ(p.lines.outlet_line_segments, 12);
+  EXPECT_EQ(system::ModelConstants(p, system::Scenario::no_flow).n_line_segments, 12u);
+  ASSERT_EQ(line->fixed_keys().size(), 1u);
+  EXPECT_EQ(line->fixed_keys()[0].table, "lines");
+  EXPECT_EQ(line->fixed_keys()[0].key, "outlet_line_segments");
+  EXPECT_EQ(line->fixed_keys()[0].value, "12");
+  EXPECT_TRUE(line->sets("lines", "outlet_inertance_Pa_s2_per_m3")); // it takes the passage's key over
+}
+
 TEST(Diagnosis, NewCaseFileSetsTheEffectKeysAndResolvesPaths)
 {
   const std::string text   = reference_text();

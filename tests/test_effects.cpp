@@ -622,7 +622,7 @@ TEST(Effects, InertialLineFeedsTheHighSideThroughItsOwnNode)
   // l = 3 L A / (4 rho), R3 grows by 128 mu l / (pi d^4), its oil A l / beta.
   auto p                                = reference();
   p.lines.outlet_inertance_Pa_s2_per_m3 = 1.12e8;
-  p.lines.outlet_line_segments          = 1; // one lumped section (the default is 12)
+  p.lines.outlet_line_segments          = 1; // one lumped section (the default, as for a short passage)
   Model m                               = make(p, Scenario::no_flow, 150);
   EXPECT_EQ(m.constants().n_line_segments, 1u);
   m.set_closed(0, false);

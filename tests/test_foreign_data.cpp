@@ -353,6 +353,29 @@ TEST(ForeignData, AFitAtItsBoundStaysInsideItsRange)
       EXPECT_EQ(uncertain_from_unit(q, 1.0), hi);
       EXPECT_EQ(uncertain_from_unit(q, 0.0), lo);
     }
+  // one the case leaves out (0, the outlet passage's inertance): position
+  // 0 is off, as the case has it, and every other position inside its
+  // range; 0 and anything at or below the range map back to 0
+  system::UncertainParameter passage{"lines", "outlet_inertance_Pa_s2_per_m3", 1e4, 5e6};
+  passage.off_at_zero = true;
+  EXPECT_EQ(uncertain_from_unit(passage, 0.0), 0.0);
+  EXPECT_EQ(uncertain_from_unit(passage, -0.5), 0.0);
+  EXPECT_GE(uncertain_from_unit(passage, 1e-9), 1e4);
+  EXPECT_EQ(uncertain_from_unit(passage, 1.0), 5e6);
+  EXPECT_EQ(uncertain_to_unit(passage, 0.0), 0.0);
+  EXPECT_EQ(uncertain_to_unit(passage, 1e4), 0.0);
+  EXPECT_NEAR(uncertain_to_unit(passage, std::sqrt(1e4 * 5e6)), 0.5, 1e-12);
+  // the reference case's opt-in line, uncommented: the passage (its value 0) is such a one, the bore is not
+  const auto reference_passage = system::SystemParameters::from_case(
+                                   CaseFile::parse(with_outlet_passage(reference_text()), "case.toml",
+                                                   reference_case_path().parent_path()))
+                                   .uncertain;
+  EXPECT_TRUE(std::any_of(reference_passage.begin(), reference_passage.end(), [](const auto &q) {
+    return q.name() == "lines.outlet_inertance_Pa_s2_per_m3" && q.off_at_zero;
+  }));
+  EXPECT_FALSE(std::any_of(reference_passage.begin(), reference_passage.end(), [](const auto &q) {
+    return q.name() == "lines.diameter_m" && q.off_at_zero;
+  }));
   for (const bool log_scale : {true, false})
     {
       EffectParameter e;
@@ -397,6 +420,15 @@ TEST(ForeignData, UncertainTableIsCheckedWhereItIsRead)
   ASSERT_EQ(p.uncertain.size(), 4u);
   EXPECT_EQ(p.uncertain[0].name(), "lines.diameter_m");
   EXPECT_DOUBLE_EQ(p.real_value("lines", "diameter_m"), 4.572e-3);
+  // and a fifth with its opt-in line: the outlet passage's inertance, at 0
+  // (the thesis's model has none) below its range: a value the case leaves
+  // out is the one allowed outside
+  const auto q = system::SystemParameters::from_case(CaseFile::parse(
+    with_outlet_passage(reference_text()), "case.toml", reference_case_path().parent_path()));
+  ASSERT_EQ(q.uncertain.size(), 5u);
+  EXPECT_EQ(q.uncertain[4].name(), "lines.outlet_inertance_Pa_s2_per_m3");
+  EXPECT_EQ(q.real_value("lines", "outlet_inertance_Pa_s2_per_m3"), 0.0);
+  EXPECT_GT(q.uncertain[4].lower, 0.0);
   const auto refused = [&](const std::string &entry, const std::string &words) {
     std::string text = reference_text();
     text             = text.substr(0, text.find("[uncertain]")) + "[uncertain]\n" + entry + "\n";
@@ -468,8 +500,9 @@ TEST(ForeignData, ARecordFromMidOperationStartsFromItsPeriodicState)
 }
 
 
-// A rig whose oil column is 2.4x the case's (a baseline gap, not an effect):
-// the calibration finds it (only the product of the cylinder's area and oil
+// A rig whose oil column is 2.4x the case's (a baseline gap, not an effect),
+// diagnosed with the case's opt-in outlet passage declared (the rig has none:
+// it stays off): the calibration finds it (only the product of the cylinder's area and oil
 // column is determined in a no-flow run: one of the two is held) and the
 // verdict is "no missing effect" where the uncalibrated model was far off.
 TEST(ForeignData, AnUncertainBaselineIsCalibratedNotMistakenForAnEffect)
@@ -477,9 +510,16 @@ TEST(ForeignData, AnUncertainBaselineIsCalibratedNotMistakenForAnEffect)
   const auto dir = scratch("foreign_baseline");
   const auto data = long_oil_column_record(dir);
   ASSERT_FALSE(data.empty());
-  const auto s = diagnose_summary(data,
-                                  "--effects valve_leakage outlet_compliance entrained_air --reed-second-mode case",
-                                  dir / "d");
+  // the case with its opt-in outlet passage: the rig has none, so the
+  // passage, tried on, stays off
+  std::filesystem::create_directories(dir / "passage");
+  const std::string line = "\"lines.outlet_inertance_Pa_s2_per_m3\" = [1e5, 5e6]";
+  const auto        with_passage = write_rig(dir / "passage", {{"# " + line, line}});
+  const auto        s            = diagnose_summary(data,
+                                                    "--case " + with_passage.string() +
+                                                      " --effects valve_leakage outlet_compliance entrained_air "
+                                                      "--reed-second-mode case",
+                                                    dir / "d");
   ASSERT_FALSE(s.is_null());
   EXPECT_EQ(s["effect"], "none") << s["decision"];
   EXPECT_EQ(s["verdict"], "no missing effect") << s["verdict_sentence"];
@@ -487,10 +527,17 @@ TEST(ForeignData, AnUncertainBaselineIsCalibratedNotMistakenForAnEffect)
                         s["baseline"]["cylinder.piston_area_m2"].get<double>();
   EXPECT_NEAR(volume, 0.061 * 1.29032e-4, 0.05 * 0.061 * 1.29032e-4);
   EXPECT_GT(s["residual_before"]["overall"].get<double>(), 10.0); // the case's own baseline was far off
-  int held = 0;
+  int  held        = 0; // of those in the model: the passage, left off, is listed as not identifiable too
+  bool passage_off = false;
   for (const auto &b : s["baseline_fit"])
-    held += b["identifiable"].get<bool>() ? 0 : 1;
+    {
+      held += b["identifiable"].get<bool>() || b["fitted"].get<double>() == 0.0 ? 0 : 1;
+      if (b["parameter"] == "lines.outlet_inertance_Pa_s2_per_m3")
+        passage_off = b["fitted"].get<double>() == 0.0;
+    }
   EXPECT_GE(held, 1);
+  EXPECT_TRUE(passage_off) << s["baseline_fit"].dump(1);
+  EXPECT_EQ(s["baseline"]["lines.outlet_inertance_Pa_s2_per_m3"].get<double>(), 0.0);
 }
 
 // A rig with more oil on the high side (a 0.061 m column) than the case's

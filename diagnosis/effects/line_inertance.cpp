@@ -2,6 +2,9 @@
 // pressure difference L dq/dt. L is that of a line of the case's bore added
 // between valve and high side (L = 4/3 rho l / A, laminar), which brings its
 // Poiseuille resistance and its oil's compliance with it (system/model.cpp).
+// The line is a hose: 12 pi sections, which the effect sets (and writes
+// into the new case file) whatever the case's [lines] outlet_line_segments,
+// which is for the case's own short line, the outlet passage.
 // The range's lower end, 1e4, is the line switched off (L = 0): "no effect"
 // must be in the range, and no inertance is small enough to be none in every
 // run - with the widest uncertain bore (least line resistance) a loaded run
@@ -19,6 +22,11 @@ namespace rectify::diagnosis
   std::shared_ptr<const Effect> make_line_inertance()
   {
     constexpr double off_below = 1e4; // the range's lower end: there the line is off
+    // A hose carries its waves: 12 pi sections (its lowest three modes
+    // within 0.3, 1.1 and 2.3 % of a continuous line's; docs/diagnosis.md,
+    // "A hose on the bench"), whatever the case gives its own short line
+    // (the outlet passage, one lumped section in the reference case).
+    constexpr long hose_sections = 12;
     return std::make_shared<Effect>(
       "line_inertance",
       "fluid inertance of the outlet line, L dq/dt in series with the line's resistance, fed "
@@ -34,11 +42,14 @@ namespace rectify::diagnosis
                                     [](double L, const system::SystemParameters &base) {
                                       auto p = base;
                                       p.lines.outlet_inertance_Pa_s2_per_m3 = L;
+                                      p.lines.outlet_line_segments          = hose_sections;
                                       return system::ModelConstants(p, system::Scenario::no_flow)
                                         .outlet_line_ringing_Hz();
                                     }}},
       [](std::span<const double> v, system::SystemParameters &p) {
         p.lines.outlet_inertance_Pa_s2_per_m3 = v[0] > off_below * (1 + 1e-9) ? v[0] : 0.0;
-      });
+        p.lines.outlet_line_segments          = hose_sections;
+      },
+      std::vector<Effect::FixedKey>{{"lines", "outlet_line_segments", std::to_string(hose_sections)}});
   }
 } // namespace rectify::diagnosis
