@@ -1498,9 +1498,13 @@ namespace rectify::diagnosis
             {
               fitted.evaluations += total;
               fitted.wall_time_s = wall;
-              std::snprintf(buf, sizeof buf,
-                            "a fit with it, from %d points along its range, scored no better (BIC %.6g against %.6g)",
-                            left_out_starts, tried[best].failed ? 0.0 : tried[best].bic, fitted.bic);
+              if (tried[best].failed) // no BIC to print: every start failed to simulate
+                std::snprintf(buf, sizeof buf, "every fit with it, from %d points along its range, failed",
+                              left_out_starts);
+              else
+                std::snprintf(buf, sizeof buf,
+                              "a fit with it, from %d points along its range, scored no better (BIC %.6g against %.6g)",
+                              left_out_starts, tried[best].bic, fitted.bic);
               out.push_back(baseline_parameter(ev.base, q, 0.0, 0.0, false, buf));
             }
         }
