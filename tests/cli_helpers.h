@@ -89,17 +89,6 @@ namespace rectify::test_support
     return s.str();
   }
 
-  /// The reference case's text with its opt-in outlet passage declared
-  /// uncertain (the commented line of its [uncertain] table uncommented).
-  inline std::string with_outlet_passage(std::string text)
-  {
-    const std::string line = "\"lines.outlet_inertance_Pa_s2_per_m3\" = [1e5, 5e6]";
-    const auto        at   = text.find("# " + line);
-    if (at == std::string::npos)
-      throw std::runtime_error("the reference case has no opt-in line '# " + line + "'");
-    return text.replace(at, line.size() + 2, line);
-  }
-
   inline std::string replace(std::string text, const std::string &from, const std::string &to)
   {
     const auto pos = text.find(from);
