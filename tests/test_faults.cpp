@@ -144,11 +144,11 @@ namespace
   }
 
   /// A text (report, VTU) with its dates, wall times, resumed counts and
-  /// Markdown "wall [s]" columns replaced by placeholders.
+  /// Markdown "wall [s]" and "loading [s]" (a time) columns replaced by placeholders.
   std::string mask_timings(const std::string &text)
   {
     std::string out = std::regex_replace(text, std::regex(R"(\d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ)"), "DATE");
-    out = std::regex_replace(out, std::regex(R"(\d\d:\d\d:\d\d at \d{4}/\d\d/\d\d)"), "DATE"); // deal.II's VTU header
+    out = std::regex_replace(out, std::regex(R"(\d{1,2}:\d\d:\d\d at \d{4}/\d\d/\d\d)"), "DATE"); // deal.II's VTU header (0:40:09 after midnight)
     out = std::regex_replace(out, std::regex(R"([0-9.]+ s wall)"), "T s wall");
     out = std::regex_replace(out, std::regex(R"(\d+ from a checkpoint)"), "N from a checkpoint");
     std::istringstream in(out);
@@ -165,10 +165,10 @@ namespace
             for (std::string c; std::getline(s, c, '|');)
               cells.push_back(c);
             for (std::size_t i = 0; i < cells.size(); ++i)
-              if (cells[i].find("wall [s]") != std::string::npos)
+              if (cells[i].find("wall [s]") != std::string::npos || cells[i].find("loading [s]") != std::string::npos)
                 wall_column = static_cast<long>(i);
             if (wall_column >= 0 && static_cast<std::size_t>(wall_column) < cells.size() &&
-                cells[wall_column].find("wall") == std::string::npos)
+                cells[wall_column].find("[s]") == std::string::npos)
               cells[wall_column] = "T";
             line = "|";
             for (const auto &c : cells)
