@@ -109,7 +109,7 @@ namespace rectify::diagnosis
 
       /// An evaluator with every [uncertain] parameter free, starting at the
       /// case's values; but one the case leaves out (off_at_zero), which is
-      /// held off: the baseline's calibration tries it on (calibrate_left_out).
+      /// held off: the named effect's fit tries it on (calibrate_left_out).
       static Evaluator make(const system::SystemParameters &base, const system::ValveMaps &map,
                             const std::vector<RunCase> &runs, const Effect *effect,
                             const DiagnoseOptions &options, unsigned run_threads,
@@ -1442,12 +1442,12 @@ namespace rectify::diagnosis
     /// off does not cross it, one start along the range can end in the
     /// wrong tooth (coil_dynamics-1 on the bench: from 1e5 the fit stays at
     /// 1.2e5, 2.89 noise units; from 3e6 it ends at 3.1e6, 6.13; from 2.5e5
-    /// or 7.1e5 at 1.2e6, 1.17). So the baseline is refitted from
+    /// or 7.1e5 at 1.2e6, 1.17). So the model is refitted from
     /// `left_out_starts` points spread along its range, every one refined
     /// to the end (all at once on `threads`), and the best is kept where
     /// its BIC beats the fit without it (a record without it keeps it off,
     /// as the case has it). Updates ev (the parameter joins the free set
-    /// at its fit), `fitted` (none's fit, or a named effect's) and its
+    /// at its fit), `fitted` (the named effect's fit) and its
     /// predictions; returns one entry per parameter tried, on or off.
     std::vector<BaselineParameter> calibrate_left_out(Evaluator &ev, CandidateResult &fitted,
                                                       std::vector<Signals> &predictions, unsigned threads)
@@ -2127,12 +2127,7 @@ namespace rectify::diagnosis
                 for (const auto &[name, value] : r.baseline)
                   if (const auto was = rr.baseline.find(name); was != rr.baseline.end() && was->second != 0.0)
                     moved = std::max(moved, std::abs(value / was->second - 1.0));
-                u             = r.u;
-                rr.values     = r.values;
-                rr.force_gain = r.force_gain;
-                rr.baseline   = r.baseline;
-                current       = refined;
-                ++rr.refine_passes;
+                bool turned_on = false;
                 if ((moved < 0.01 || pass + 1 == passes) && !left_out_tried)
                   {
                     // settled: a parameter the case leaves out is tried on
@@ -2143,16 +2138,18 @@ namespace rectify::diagnosis
                     left_out_tried         = true;
                     const auto free_before = named_ev.free.size();
                     rr.left_out            = calibrate_left_out(named_ev, r, refined, cores);
-                    if (named_ev.free.size() > free_before)
-                      {
-                        u             = r.u;
-                        rr.values     = r.values;
-                        rr.force_gain = r.force_gain;
-                        rr.baseline   = r.baseline;
-                        current       = refined;
-                        ++passes; // one more, with the noise scales at the new fit
-                        continue;
-                      }
+                    turned_on              = named_ev.free.size() > free_before;
+                  }
+                u             = r.u;
+                rr.values     = r.values;
+                rr.force_gain = r.force_gain;
+                rr.baseline   = r.baseline;
+                current       = refined;
+                ++rr.refine_passes;
+                if (turned_on)
+                  {
+                    ++passes; // one more, with the noise scales at the new fit
+                    continue;
                   }
                 if (moved < 0.01)
                   break;
