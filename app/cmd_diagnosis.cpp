@@ -195,7 +195,7 @@ namespace rectify::app
                                  {"training", format_number(o.options.training_fraction) + " of each run; the rest held out"},
                                  {"rounds", std::to_string(o.options.rounds)},
                                  {"out", o.out_dir}});
-      o.options.progress = [](const std::string &line) { std::fprintf(stderr, "  fitted %s\n", line.c_str()); };
+      o.options.progress = [](const std::string &line) { std::fprintf(stderr, "  %s\n", line.c_str()); };
       const std::filesystem::path out(o.out_dir);
       const bool                  made_out = !std::filesystem::exists(out);
       OutputLock                  lock; // a folder in use is refused now, not after minutes of fits

@@ -105,7 +105,7 @@ namespace rectify::diagnosis
     std::vector<std::string> effects;              ///< candidates; empty: the whole library
     unsigned            threads = 0;               ///< 0: all cores
     int                 rounds  = 1;               ///< 2: look for a second effect
-    std::function<void(const std::string &)> progress; ///< one line per finished candidate
+    std::function<void(const std::string &)> progress; ///< one line per finished candidate, named fit refit, left-out try and profile
   };
 
   /// One run with its setup and normalisation.

@@ -576,6 +576,20 @@ TEST(Diagnosis, SynthThenDiagnoseNamesAHiddenLeakAndFindsNothingInCleanData)
   EXPECT_TRUE(std::filesystem::exists(dir / "d-leak" / "case-with-valve_leakage.toml"));
   EXPECT_EQ(s["candidates"].size(), 4u); // none + the three asked for
   EXPECT_NE(r.output.find("outlet pressure"), std::string::npos) << r.output; // the localisation
+  // progress, one line per step that takes seconds: each candidate, the
+  // named fit's refits, the passage's try and the profiles
+  for (const char *line : {"fitted none ", "fitted valve_leakage ", "valve_leakage refitted (pass 1)",
+                           "lines.outlet_inertance_Pa_s2_per_m3: ", "valve_leakage's standard errors and profiles: "})
+    EXPECT_NE(r.output.find(line), std::string::npos) << line << " in\n" << r.output;
+  // the model's own data, fitted to the noise: the outlet passage has
+  // nothing left to explain and is not tried
+  ASSERT_EQ(s["left_out_tried_at_the_named_fit"].size(), 1u);
+  EXPECT_FALSE(s["left_out_tried_at_the_named_fit"][0]["on"].get<bool>());
+  EXPECT_NE(s["left_out_tried_at_the_named_fit"][0]["note"].get<std::string>().find(
+              "not tried: the named fit leaves no gap above the noise"),
+            std::string::npos)
+    << s["left_out_tried_at_the_named_fit"];
+  EXPECT_LT(s["residual_after"]["overall"].get<double>(), 1.0);
 
   r = rectify_cli("diagnose --data " + (dir / "clean" / "data.csv").string() + candidates + "--out " +
                   (dir / "d-clean").string());
