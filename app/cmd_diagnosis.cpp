@@ -363,7 +363,9 @@ namespace rectify::app
               csv += c.effect + "," + std::to_string(c.k) + "," + sci(c.bic) + "," + sci(none_bic - c.bic) + "," +
                      sci(c.aic) + "," + sci(c.rms_train) + "," + sci(c.rms_heldout) + "," + sci(c.force_gain) +
                      "," + params + "," + std::to_string(c.evaluations) + "," + sci(c.wall_time_s) + "," +
-                     (c.failed ? "failed: " + c.message : "") + "\n";
+                     (c.failed                ? "failed: " + c.message :
+                      c.search_note.empty() ? std::string() :
+                                              "\"" + c.search_note + "\"") + "\n";
           }
         write_file_atomic(out / "candidates.csv", csv);
       }

@@ -171,6 +171,9 @@ namespace rectify::diagnosis
     double              wall_time_s = 0;
     bool                failed = false;    ///< every start failed to simulate
     std::string         message;
+    /// How its searches ended where that is not the usual (not restarted:
+    /// too far from closing the gap to be named; fit() in diagnose.cpp).
+    std::string         search_note;
   };
 
   /// A named effect's parameter at its final fit and how well the record

@@ -34,15 +34,21 @@
 set -euo pipefail
 rectify=$1 src=$2 out=$3 form=${4:-laminar}
 max_residual=1e9 min_explained=0.8
+# where the effect leaves a gap the other candidates cannot follow, some of
+# them are not restarted (diagnose.cpp, fit()); in a hose's records their
+# grid starts lie far above none's fit, and the way back down promises
+# enough that none is cut (line_inertance-2: the others all end at none's
+# level, in searches that end by themselves, so their restarts are short)
+expect_cut=1
 at_100Hz=(--scenario no-flow --frequency 100)
 case "$form" in
   laminar) effect=valve_leakage key=leak_resistance_Pa_s_per_m3
     record_args=(--value 4e11 --seed 4242 --start mid --cycles 12 "${at_100Hz[@]}") ;;
   turbulent) effect=valve_leakage_turbulent key=leak_area_m2
     record_args=(--value 6e-8 --seed 4242 --start mid --cycles 12 "${at_100Hz[@]}") ;;
-  line) effect=line_inertance key=outlet_inertance_Pa_s2_per_m3
+  line) effect=line_inertance key=outlet_inertance_Pa_s2_per_m3 expect_cut=0
     max_residual=2 record_args=(--seed 14152 --cycles 16) ;; # the study's line_inertance-0, as study.py makes it
-  line-short) effect=line_inertance key=outlet_inertance_Pa_s2_per_m3 min_explained=0.5
+  line-short) effect=line_inertance key=outlet_inertance_Pa_s2_per_m3 min_explained=0.5 expect_cut=0
     record_args=(--seed 14184 --cycles 16) ;; # the study's line_inertance-2
   mid-start) effect=valve_leakage_turbulent key=leak_area_m2 max_residual=2
     record_args=(--seed 33522 --cycles 16) ;; # the study's draws, as study.py makes them: no-flow, 100 Hz, mid
@@ -60,11 +66,12 @@ if [ "$form" = passage ]; then  # the reference case declares the passage
 fi
 "$rectify" diagnose --data "$out/record/data.csv" --out "$out/d" > "$out/diagnose.log" 2>&1 ||
   { cat "$out/diagnose.log"; exit 1; }
-"$py" - "$out" "$effect" "$key" "$max_residual" "$min_explained" "$form" "$src" <<'PY'
+"$py" - "$out" "$effect" "$key" "$max_residual" "$min_explained" "$form" "$src" "$expect_cut" <<'PY'
 import json, math, sys
 out, effect, key = sys.argv[1:4]
 max_residual, min_explained = float(sys.argv[4]), float(sys.argv[5])
 form, src = sys.argv[6:8]
+expect_cut = sys.argv[8] == "1"
 s = json.load(open(f"{out}/d/summary.json"))
 t = json.load(open(f"{out}/record/truth.json"))
 v = s["parameters"].get(key)
@@ -79,6 +86,17 @@ if s["residual_after"]["overall"] > 2:  # the verdict says what is left
     ok = ok and s["verdict"] == "partly explained"
 if t["start"] != "rest":  # a record from mid-operation is not simulated from rest
     ok = ok and s["localisation"][0]["start"] != "rest"
+# candidates far from being named are not restarted (diagnose.cpp, fit()):
+# never the named one, each closing less than the half of the gap that
+# naming needs; some, where expected (expect_cut above)
+none = next(c for c in s["candidates"] if c["effect"] == "none")
+gap = lambda r: math.sqrt(max(r * r - 1, 0))
+cut = [c for c in s["candidates"] if c.get("search", "").startswith("not restarted")]
+for c in cut:
+    closed = 1 - gap(c["rms_train"]) / gap(none["rms_train"])
+    print("not restarted", c["effect"], "closes %.0f %% of the gap" % (100 * closed))
+    ok = ok and c["effect"] != s["effect"] and closed < 0.5
+ok = ok and (len(cut) >= 1 or not expect_cut)
 print("residual after", s["residual_after"]["overall"], "noise units (at most", max_residual, ")")
 ok = ok and s["residual_after"]["overall"] <= max_residual
 if form == "passage":  # the outlet passage, tried on at the named fit and kept near the bench's
