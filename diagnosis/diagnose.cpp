@@ -707,6 +707,10 @@ namespace rectify::diagnosis
       return starts;
     }
 
+    /// The part of a residual above the noise, from its mean square in noise
+    /// units (an RMS r gives r * r): what an effect must close.
+    double gap_above_noise(double mean_square) { return std::sqrt(std::max(mean_square - 1.0, 0.0)); }
+
     /// A candidate's searches are restarted only where their first runs
     /// closed at least this share of DiagnoseOptions::min_gap_closed (fit()).
     constexpr double restart_closure = 0.4;
@@ -841,9 +845,7 @@ namespace rectify::diagnosis
       // each as good as the first (f - 1 falling by the same ratio again)
       // would stay short of min_gap_closed. The candidate's BIC is then that
       // of its first searches; the report says so.
-      const auto gap_of = [](double f) { return std::sqrt(std::max(f - 1.0, 0.0)); };
-      if (ev.effect && !from_point && ev.none_objective > 0 && gap_of(ev.none_objective) > 0 && !search.empty() &&
-          max_attempts > 1)
+      if (ev.effect && !from_point && gap_above_noise(ev.none_objective) > 0 && !search.empty() && max_attempts > 1)
         {
           double first = 1e300;
           for (const auto &s : search)
@@ -851,8 +853,8 @@ namespace rectify::diagnosis
           const double from      = grid.front().value; // the best start
           const double ratio     = from > 1.0 ? std::clamp((first - 1.0) / (from - 1.0), 0.0, 1.0) : 0.0;
           const double projected = 1.0 + (first - 1.0) * std::pow(ratio, max_attempts - 1);
-          const double closed    = 1.0 - gap_of(first) / gap_of(ev.none_objective);
-          const double reachable = 1.0 - gap_of(projected) / gap_of(ev.none_objective);
+          const double closed    = 1.0 - gap_above_noise(first) / gap_above_noise(ev.none_objective);
+          const double reachable = 1.0 - gap_above_noise(projected) / gap_above_noise(ev.none_objective);
           const double restart   = restart_closure * ev.options.min_gap_closed;
           if (closed < restart && reachable < ev.options.min_gap_closed)
             {
@@ -2079,7 +2081,7 @@ namespace rectify::diagnosis
           return std::sqrt(s / static_cast<double>(runs.size()));
         };
         const double feature_before = feature(calibrated);
-        const auto   gap            = [](double r) { return std::sqrt(std::max(r * r - 1.0, 0.0)); };
+        const auto   gap            = [](double r) { return gap_above_noise(r * r); };
 
         std::string reasons;
         for (std::size_t i : order)
@@ -2295,7 +2297,7 @@ namespace rectify::diagnosis
                                    result.residual_after.at("overall") :
                                    pooled_norms(runs, baseline_prediction, false).at("overall");
       const double after       = result.residual_after.at("overall");
-      const auto   gap         = [](double r) { return std::sqrt(std::max(r * r - 1.0, 0.0)); };
+      const auto   gap         = [](double r) { return gap_above_noise(r * r); };
       result.residual_baseline  = baseline;
       result.explained_fraction = gap(baseline) > 0 ? std::clamp(1.0 - gap(after) / gap(baseline), 0.0, 1.0) : 0.0;
       // where the rest lies: the largest residual of the final model
