@@ -456,6 +456,18 @@ namespace rectify::diagnosis
               std::min(0.4 * fs, par.ringing_Hz(par.lower, base))};
     }
 
+    /// A frequency's pair grids (ringing_start) are run only where its
+    /// bases and lines along each parameter come within this factor of the
+    /// effect's weak end over 3 cycles: a frequency goes further only where
+    /// its grid beats the weak end. On the bench's 32 records and the
+    /// diagnosis benchmark (75 frequencies with both run) the pair grids
+    /// took at most 1.94 x off the lines' best and never turned a frequency
+    /// round (0.88-1.33 x where a hose was there to be found, whose lines
+    /// already beat the weak end 1.5-18 fold). A frequency they cannot turn
+    /// round costs most of the line's runs in a loaded record: 588 of its
+    /// 871 in piston_friction-0, whose lines stay 3.9 and 5.3 x above.
+    constexpr double pair_grid_reach = 3.0;
+
     /// A start for an effect whose first parameter sets a lightly damped
     /// ringing (EffectParameter::ringing_Hz), or nothing. The residual's
     /// dependence on such a parameter is a comb of basins: over the
@@ -471,7 +483,8 @@ namespace rectify::diagnosis
     /// uncertain bore, sets its wave speed): along each free [uncertain]
     /// parameter that moves the ringing by more than 5 % over its range,
     /// 9 positions, and over each pair of them a 7 x 7 grid (a line's bore
-    /// and the oil column can both be far off), each with the value that
+    /// and the oil column can both be far off; only where the lines come
+    /// within pair_grid_reach of the weak end), each with the value that
     /// rings at that frequency there, compared over the first 3 cycles of
     /// each run (the baseline as its fit left it, and at the case's
     /// values), for each frequency of (1) (one whose grid does not beat
@@ -486,9 +499,11 @@ namespace rectify::diagnosis
     /// cycles from rest a line's lowest mode set to ring at its second
     /// mode's peak can score better than the right one), or nothing when
     /// the residual shows no ringing in the parameter's range;
-    /// counts its (short) runs of the model into runs_of_the_model.
-    std::vector<std::vector<double>> ringing_start(const Evaluator &ev, int &runs_of_the_model)
+    /// counts its (short) runs of the model into runs_of_the_model; `note`
+    /// says what became of each frequency.
+    std::vector<std::vector<double>> ringing_start(const Evaluator &ev, int &runs_of_the_model, std::string &note)
     {
+      note.clear();
       const EffectParameter &par = ev.effect->parameters()[0];
       struct Peak
       {
@@ -519,7 +534,10 @@ namespace rectify::diagnosis
             peaks.push_back({found[k], k});
         }
       if (peaks.empty())
-        return {};
+        {
+          note = "no peak in the residual's spectrum where it can ring";
+          return {};
+        }
       // merge the runs' peaks within 5 %: most runs first, then the larger
       // (lower mean rank); each cluster's median frequency
       std::sort(peaks.begin(), peaks.end(), [](const Peak &a, const Peak &b) { return a.f < b.f; });
@@ -571,6 +589,15 @@ namespace rectify::diagnosis
         std::vector<double> u;
       };
       std::vector<Found> found;
+      struct Tried // a frequency's way, for the note
+      {
+        double f;
+        double lines; ///< the bases' and lines' best over the weak end's (3 cycles) where skipped
+        bool   skipped; ///< its pair grids not run (pair_grid_reach)
+        double grid;  ///< the grid's best over the weak end's (3 cycles)
+        double six;   ///< its best after the valley search and scans (6 cycles), or -1
+      };
+      std::vector<Tried> log;
       // the effect at its weak end ("no ringing") over the same 3 cycles
       // from the same bases: a frequency whose grid does not beat it is a
       // peak of the noise (or of a slow model error), not a ringing the
@@ -598,6 +625,7 @@ namespace rectify::diagnosis
                 points.push_back(std::move(u));
               }
           };
+          std::vector<bool> in_pairs; // per point: of a pair grid (evaluated second)
           const auto valley = [&](const std::vector<double> &b) {
             const auto at = ringing_at(b, f_peak); // the value that rings at f_peak here
             if (!at)
@@ -626,6 +654,7 @@ namespace rectify::diagnosis
                   u[j]   = (g + 0.5) / 9.0;
                   try_point(u);
                 }
+            in_pairs.resize(points.size(), false);
             for (std::size_t a = 0; a < moving.size(); ++a)
               for (std::size_t c = a + 1; c < moving.size(); ++c)
                 for (int g = 0; g < 7; ++g)
@@ -636,11 +665,39 @@ namespace rectify::diagnosis
                       u[moving[c]] = (h + 0.5) / 7.0;
                       try_point(u);
                     }
+            in_pairs.resize(points.size(), true);
           };
           for (const auto &b : bases)
             valley(b);
-          const auto values = evaluate_points(o3, points, ev.batch_threads);
+          // the bases and the lines along each parameter first; the pair
+          // grids only where those come within pair_grid_reach of the weak
+          // end (the same points in the same order as all at once)
+          std::vector<double>              values(points.size(), 1e300);
+          std::vector<std::vector<double>> stage[2];
+          std::vector<std::size_t>         index[2];
+          for (std::size_t p = 0; p < points.size(); ++p)
+            {
+              stage[in_pairs[p] ? 1 : 0].push_back(points[p]);
+              index[in_pairs[p] ? 1 : 0].push_back(p);
+            }
+          Tried tried{f_peak, 0, false, 0, -1};
+          for (int st = 0; st < 2; ++st)
+            {
+              if (st == 1 && !stage[1].empty() && !(o3.best < pair_grid_reach * none3.best))
+                {
+                  tried.lines   = o3.best / none3.best;
+                  tried.skipped = true;
+                  break;
+                }
+              Objective  part{&short_ev, 0, 0, 0, 1e300, {}};
+              const auto v = evaluate_points(part, stage[st], ev.batch_threads);
+              for (std::size_t q = 0; q < v.size(); ++q)
+                values[index[st][q]] = v[q];
+              o3.absorb(part);
+            }
           runs_of_the_model += o3.evaluations;
+          tried.grid = o3.best / none3.best;
+          log.push_back(tried);
           if (o3.best_u.empty() || !(o3.best < none3.best))
             continue;
           // (2b) from the grid's two best points, a search along the valley
@@ -686,6 +743,7 @@ namespace rectify::diagnosis
           };
           scan(3.0, 1.02, 12);
           scan(6.0, 1.005, 4);
+          log.back().six = value;
           found.push_back({value, best});
         }
       // a start must beat the effect at its weak end ("no effect") over
@@ -704,6 +762,26 @@ namespace rectify::diagnosis
       for (const auto &f : found)
         if (f.value < none6.best)
           starts.push_back(f.u);
+      // what became of each frequency, for the report
+      for (const auto &t : log)
+        {
+          char buf[240];
+          if (t.grid > 1e200) // no value in its range rings there from either base
+            std::snprintf(buf, sizeof buf, "%.0f Hz: out of its range", t.f);
+          else if (t.skipped)
+            std::snprintf(buf, sizeof buf,
+                          "%.0f Hz: the lines along the baseline %.3g x the residual with it off over 3 cycles, its "
+                          "pair grids not run (within %.0f x needed)",
+                          t.f, t.lines, pair_grid_reach);
+          else if (t.six < 0)
+            std::snprintf(buf, sizeof buf, "%.0f Hz: its grid %.3g x the residual with it off over 3 cycles, no further",
+                          t.f, t.grid);
+          else
+            std::snprintf(buf, sizeof buf,
+                          "%.0f Hz: its grid %.3g x the residual with it off over 3 cycles, refined to %.3g x over 6 (%s)",
+                          t.f, t.grid, t.six / none6.best, t.six < none6.best ? "a start" : "not a start");
+          note += (note.empty() ? "" : "; ") + std::string(buf);
+        }
       return starts;
     }
 
@@ -771,7 +849,7 @@ namespace rectify::diagnosis
                 add_start(b, 0.5 / grid_points);
               }
           if (ringing)
-            for (const auto &r : ringing_start(ev, short_runs))
+            for (const auto &r : ringing_start(ev, short_runs, c.ringing_note))
               {
                 add_start(r, fine_step(r));
                 grid.back().from_ringing = true;
@@ -1971,7 +2049,12 @@ namespace rectify::diagnosis
           char            buf[256];
           std::snprintf(buf, sizeof buf, "fitted %-18s BIC %.6g, held-out RMS %.4g, %d runs of the model, %.1f s",
                         c.effect.c_str(), c.bic, c.rms_heldout, c.evaluations, c.wall_time_s);
-          options.progress(c.search_note.empty() ? std::string(buf) : std::string(buf) + "; " + c.search_note);
+          std::string line = buf;
+          if (!c.search_note.empty())
+            line += "; " + c.search_note;
+          if (!c.ringing_note.empty())
+            line += "; ringing starts: " + c.ringing_note;
+          options.progress(line);
         };
         // a progress line of the named fit's later steps (printf's format)
         const auto say = [&](const char *format, auto... args) {
@@ -2407,6 +2490,8 @@ namespace rectify::diagnosis
                 cj["optimiser"]    = c.message;
                 if (!c.search_note.empty())
                   cj["search"] = c.search_note;
+                if (!c.ringing_note.empty())
+                  cj["ringing"] = c.ringing_note;
               }
             candidates.push_back(cj);
           }

@@ -174,6 +174,9 @@ namespace rectify::diagnosis
     /// How its searches ended where that is not the usual (not restarted:
     /// too far from closing the gap to be named; fit() in diagnose.cpp).
     std::string         search_note;
+    /// What became of each frequency its ringing start tried (an effect
+    /// whose parameter sets a ringing: the outlet line), or empty.
+    std::string         ringing_note;
   };
 
   /// A named effect's parameter at its final fit and how well the record

@@ -104,6 +104,36 @@ for c in cut:
     ok = ok and m is not None and c["effect"] != s["effect"] and closed < 0.5
     ok = ok and said < 20 and said <= reach < 50 and abs(said - 100 * max(closed, 0)) <= 1
 ok = ok and (len(cut) >= 1 or not expect_cut)
+# the line's ringing starts (diagnose.cpp, ringing_start): what its note says
+# of each frequency must agree with the rule it states - the pair grids not
+# run only where the lines along the baseline stay 3 x above the residual
+# with the line off, a grid refined only where it beat that, a start only
+# where the refined point beats it over 6 cycles; in a hose's record the
+# named line is found from its ringing (at least one start)
+line = next((c for c in s["candidates"] if c["effect"] == "line_inertance"), None)
+entries = line.get("ringing", "").split("; ") if line and line.get("ringing") else []
+starts = skipped = 0
+for e in entries:
+    print("line ringing:", e)
+    m = re.match(r"(\d+) Hz: the lines along the baseline (\S+) x .*pair grids not run \(within 3 x needed\)$", e)
+    if m:
+        skipped += 1
+        ok = ok and float(m.group(2)) >= 3
+        continue
+    m = re.match(r"(\d+) Hz: its grid (\S+) x the residual with it off over 3 cycles, no further$", e)
+    if m:
+        ok = ok and float(m.group(2)) >= 1
+        continue
+    m = re.match(r"(\d+) Hz: its grid (\S+) x .*, refined to (\S+) x over 6 \((a start|not a start)\)$", e)
+    if m:
+        starts += m.group(4) == "a start"
+        six = float(m.group(3))  # (printed to 3 digits: 1 may be either side)
+        ok = ok and float(m.group(2)) <= 1 and (abs(six - 1) < 0.005 or (six < 1) == (m.group(4) == "a start"))
+        continue
+    ok = ok and (e == "no peak in the residual's spectrum where it can ring" or e.endswith("Hz: out of its range"))
+print("line ringing: %d frequencies, %d starts, %d pair grids not run" % (len(entries), starts, skipped))
+if form in ("line", "line-short"):
+    ok = ok and starts >= 1
 print("residual after", s["residual_after"]["overall"], "noise units (at most", max_residual, ")")
 ok = ok and s["residual_after"]["overall"] <= max_residual
 if form == "passage":  # the outlet passage, tried on at the named fit and kept near the bench's
