@@ -592,9 +592,8 @@ namespace rectify::diagnosis
       struct Tried // a frequency's way, for the note
       {
         double f;
-        double lines; ///< the bases' and lines' best over the weak end's (3 cycles) where skipped
-        bool   skipped; ///< its pair grids not run (pair_grid_reach)
-        double grid;  ///< the grid's best over the weak end's (3 cycles)
+        double grid;  ///< the grid's best over the weak end's (3 cycles); -1: no value in range rings there
+        double lines; ///< the bases' and lines' best over the weak end's where the pair grids were not run, else 0
         double six;   ///< its best after the valley search and scans (6 cycles), or -1
       };
       std::vector<Tried> log;
@@ -680,13 +679,12 @@ namespace rectify::diagnosis
               stage[in_pairs[p] ? 1 : 0].push_back(points[p]);
               index[in_pairs[p] ? 1 : 0].push_back(p);
             }
-          Tried tried{f_peak, 0, false, 0, -1};
+          Tried tried{f_peak, -1, 0, -1};
           for (int st = 0; st < 2; ++st)
             {
               if (st == 1 && !stage[1].empty() && !(o3.best < pair_grid_reach * none3.best))
                 {
-                  tried.lines   = o3.best / none3.best;
-                  tried.skipped = true;
+                  tried.lines = o3.best / none3.best;
                   break;
                 }
               Objective  part{&short_ev, 0, 0, 0, 1e300, {}};
@@ -696,7 +694,8 @@ namespace rectify::diagnosis
               o3.absorb(part);
             }
           runs_of_the_model += o3.evaluations;
-          tried.grid = o3.best / none3.best;
+          if (!o3.best_u.empty())
+            tried.grid = o3.best / none3.best;
           log.push_back(tried);
           if (o3.best_u.empty() || !(o3.best < none3.best))
             continue;
@@ -766,9 +765,9 @@ namespace rectify::diagnosis
       for (const auto &t : log)
         {
           char buf[240];
-          if (t.grid > 1e200) // no value in its range rings there from either base
+          if (t.grid < 0)
             std::snprintf(buf, sizeof buf, "%.0f Hz: out of its range", t.f);
-          else if (t.skipped)
+          else if (t.lines > 0)
             std::snprintf(buf, sizeof buf,
                           "%.0f Hz: the lines along the baseline %.3g x the residual with it off over 3 cycles, its "
                           "pair grids not run (within %.0f x needed)",
