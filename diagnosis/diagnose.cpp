@@ -2059,10 +2059,10 @@ namespace rectify::diagnosis
         const auto say = [&](const char *format, auto... args) {
           if (!options.progress)
             return;
-          char buf[512];
-          std::snprintf(buf, sizeof buf, format, args...);
+          std::string line(static_cast<std::size_t>(std::snprintf(nullptr, 0, format, args...)), '\0');
+          std::snprintf(line.data(), line.size() + 1, format, args...); // whole, however long
           std::lock_guard lock(mutex);
-          options.progress(buf);
+          options.progress(line);
         };
         // The baseline first: "none" with every [uncertain] parameter and the
         // force gain; then which of them the data determine (the others are
@@ -2120,14 +2120,6 @@ namespace rectify::diagnosis
         });
 
         const CandidateResult &none = fitted[0];
-        double bic_min = 1e300;
-        for (const auto &c : fitted)
-          if (!c.failed)
-            bic_min = std::min(bic_min, c.bic);
-        double weight_sum = 0;
-        for (const auto &c : fitted)
-          if (!c.failed)
-            weight_sum += std::exp(-0.5 * (c.bic - bic_min));
         // rank the effects by BIC
         std::vector<std::size_t> order;
         for (std::size_t i = 1; i < fitted.size(); ++i)
@@ -2135,214 +2127,327 @@ namespace rectify::diagnosis
             order.push_back(i);
         std::sort(order.begin(), order.end(),
                   [&](auto a, auto b) { return fitted[a].bic < fitted[b].bic; });
-
-        // the dominant feature of the residual that the calibrated baseline
-        // (none's fit) leaves: what an effect must explain beyond it
-        const std::vector<Signals> &calibrated = predictions[0].empty() ? current : predictions[0];
-        double worst = -1;
-        std::string signal, half;
-        for (std::size_t r = 0; r < runs.size(); ++r)
+        std::string reasons;
+        // Judged twice at most: the second time only the nearest miss, with
+        // the parameters the case leaves out tried on at none's fit and at
+        // its own (see "The nearest miss" below)
+        std::vector<std::size_t> judged = order;
+        std::optional<Evaluator> named_from;        // the nearest miss's evaluator, with them
+        std::vector<BaselineParameter> near_left;   // what its try did with them
+        std::optional<CandidateResult> saved_none, saved_near; // the fits without them
+        std::vector<std::vector<Signals>> saved_made;         // and their predictions
+        for (int look = 0; look < 2; ++look)
           {
-            const auto L = localise(runs[r].run, calibrated[r], runs[r].setup.frequency_Hz, runs[r].scales);
-            const auto v = L.numbers[L.dominant_signal]["rms_normalised"].get<double>();
-            if (v > worst)
-              {
-                worst  = v;
-                signal = L.dominant_signal;
-                half   = L.dominant_half;
-              }
-          }
-        const auto feature = [&](const std::vector<Signals> &model) {
-          double s = 0;
+          double bic_min = 1e300;
+          for (const auto &c : fitted)
+            if (!c.failed)
+              bic_min = std::min(bic_min, c.bic);
+          double weight_sum = 0;
+          for (const auto &c : fitted)
+            if (!c.failed)
+              weight_sum += std::exp(-0.5 * (c.bic - bic_min));
+          std::size_t nearest = 0;        // the candidate that failed only the gap or the feature rule,
+          double      nearest_closed = 0; // closing the largest share of the gap
+
+          // the dominant feature of the residual that the calibrated baseline
+          // (none's fit) leaves: what an effect must explain beyond it
+          const std::vector<Signals> &calibrated = predictions[0].empty() ? current : predictions[0];
+          double worst = -1;
+          std::string signal, half;
           for (std::size_t r = 0; r < runs.size(); ++r)
             {
-              const double v = half_cycle_residual(runs[r].run, model[r], runs[r].setup.frequency_Hz,
-                                                   signal, half, runs[r].scales);
-              s += v * v;
+              const auto L = localise(runs[r].run, calibrated[r], runs[r].setup.frequency_Hz, runs[r].scales);
+              const auto v = L.numbers[L.dominant_signal]["rms_normalised"].get<double>();
+              if (v > worst)
+                {
+                  worst  = v;
+                  signal = L.dominant_signal;
+                  half   = L.dominant_half;
+                }
             }
-          return std::sqrt(s / static_cast<double>(runs.size()));
-        };
-        const double feature_before = feature(calibrated);
-        const auto   gap            = [](double r) { return gap_above_noise(r * r); };
+          const auto feature = [&](const std::vector<Signals> &model) {
+            double s = 0;
+            for (std::size_t r = 0; r < runs.size(); ++r)
+              {
+                const double v = half_cycle_residual(runs[r].run, model[r], runs[r].setup.frequency_Hz,
+                                                     signal, half, runs[r].scales);
+                s += v * v;
+              }
+            return std::sqrt(s / static_cast<double>(runs.size()));
+          };
+          const double feature_before = feature(calibrated);
+          const auto   gap            = [](double r) { return gap_above_noise(r * r); };
 
-        std::string reasons;
-        for (std::size_t i : order)
-          {
-            const auto  &c     = fitted[i];
-            const double delta = none.bic - c.bic;
-            char         buf[512];
-            if (delta <= options.bic_threshold)
-              {
-                std::snprintf(buf, sizeof buf, "%s: BIC better than none by only %.1f (needs > %.0f). ",
-                              c.effect.c_str(), delta, options.bic_threshold);
-                reasons += buf;
-                break; // the rest rank lower still
-              }
-            if (!(c.rms_heldout < none.rms_heldout))
-              {
-                std::snprintf(buf, sizeof buf, "%s: held-out residual %.4g not below none's %.4g. ",
-                              c.effect.c_str(), c.rms_heldout, none.rms_heldout);
-                reasons += buf;
-                continue;
-              }
-            // the gap above the noise that the calibrated baseline leaves
-            // (training RMS): an effect must close at least half of it. BIC
-            // alone counts every sample as independent, which coloured noise
-            // and small model errors are not: over 10^4 samples a fit that
-            // closes 4 % of a 1.35-unit residual still "wins" by 600.
-            const double closed = gap(none.rms_train) > 0 ? 1.0 - gap(c.rms_train) / gap(none.rms_train) : 0.0;
-            if (!(closed >= options.min_gap_closed))
-              {
-                std::snprintf(buf, sizeof buf,
-                              "%s: closes only %.0f %% of the gap above the noise that the calibrated baseline "
-                              "leaves (training RMS %.3g -> %.3g noise units; needs %.0f %%). ",
-                              c.effect.c_str(), 100 * closed, none.rms_train, c.rms_train,
-                              100 * options.min_gap_closed);
-                reasons += buf;
-                continue;
-              }
-            // ... and half of the dominant feature above the noise (the
-            // feature is in noise units: no effect can take that unit away)
-            const double after = feature(predictions[i]);
-            if (!(gap(after) <= 0.5 * gap(feature_before)))
-              {
-                std::snprintf(buf, sizeof buf,
-                              "%s: explains too little of the dominant feature (%s, %s half: %.3g -> %.3g noise "
-                              "units; half of it above the noise needed). ",
-                              c.effect.c_str(), signal.c_str(), half.c_str(), feature_before, after);
-                reasons += buf;
-                continue;
-              }
-            rr.effect     = c.effect;
-            rr.values     = c.values;
-            rr.force_gain = c.force_gain;
-            rr.baseline   = c.baseline;
-            rr.confidence = std::exp(-0.5 * (c.bic - bic_min)) / weight_sum;
-            rr.signature_explained = true;
-            std::snprintf(buf, sizeof buf,
-                          "dominant residual feature (%s, %s half) %.3g -> %.3g of its swing", signal.c_str(),
-                          half.c_str(), feature_before, after);
-            rr.signature_detail = buf;
-            std::snprintf(buf, sizeof buf,
-                          "%s: BIC better than none by %.1f, held-out RMS %.4g vs none's %.4g, "
-                          "next best %s by %.1f; ",
-                          c.effect.c_str(), delta, c.rms_heldout, none.rms_heldout,
-                          order.size() > 1 ? fitted[order[order[0] == i ? 1 : 0]].effect.c_str() : "-",
-                          order.size() > 1 ? fitted[order[order[0] == i ? 1 : 0]].bic - c.bic : 0.0);
-            rr.decision = std::string(buf) + rr.signature_detail;
-            current     = predictions[i];
-            // Refine: the residual scales hold the model's response to the
-            // drive's noise, computed so far with the model as it was; the
-            // named effect can change that response many-fold (a soft outlet
-            // seal turns the outlet valve's jitter into outlet pressure's),
-            // which weighs the signals wrongly and biases the parameter.
-            // Recalibrate with the fitted model and refit locally, until the
-            // parameters settle (iteratively reweighted least squares).
-            std::vector<double> u = c.u;
-            Evaluator named_ev    = baseline_ev; // one fit: its runs at once
-            named_ev.use_effect(todo[i]);
-            named_ev.reference    = nullptr;
-            named_ev.run_threads  = cores;
-            if (options.refine_passes > 0)
-              {
-                int checks = 0;
-                rr.freed   = free_determined(named_ev, u, options.identifiability_sd, checks, cores);
-                // The start, chosen again with the named model: the first
-                // choice was made with the case's baseline, which a strong
-                // effect leaves so far off that every start scored alike
-                // (a record from mid-operation simulated from rest, its
-                // start-up transient the largest residual left).
-                if (options.start == "auto")
-                  {
-                    std::vector<StartState> was;
-                    for (const auto &rc : runs)
-                      was.push_back(rc.start);
-                    choose_start(named_ev.parameters(u), map, runs, options, cores);
-                    for (std::size_t r = 0; r < runs.size(); ++r)
-                      if (runs[r].start != was[r]) // a later round appends its own
-                        runs[r].start_revised +=
-                          (runs[r].start_revised.empty() ? to_string(was[r]) + " with the case's baseline" : "") +
-                          ", " + to_string(runs[r].start) + " with " + c.effect + "'s fit";
-                  }
-              }
-            bool left_out_tried = false;
-            for (int pass = 0, passes = options.refine_passes; pass < passes; ++pass)
-              {
-                Evaluator ev = named_ev;
-                calibrate_noise(ev.parameters(u), map, runs, options.relative_tolerance, cores);
-                if (pass == 0)
-                  place_freed(ev, rr.freed, u, cores);
-                std::vector<Signals> refined;
-                auto                 r = fit(ev, refined, &u, pass == 0 && !rr.freed.empty() ? 0.05 : 0.02);
-                if (r.failed)
-                  break;
-                say("%s refitted (pass %d), noise scales from the model as fitted: BIC %.6g, %d runs, %.1f s",
-                    c.effect.c_str(), pass + 1, r.bic, r.evaluations, r.wall_time_s);
-                double moved = std::abs(r.force_gain / rr.force_gain - 1.0);
-                for (std::size_t j = 0; j < r.values.size(); ++j)
-                  moved = std::max(moved, std::abs(r.values[j] / rr.values[j] - 1.0));
-                // every [uncertain] parameter the refit moved, not only the
-                // freed ones: a free line bore that moved 9 % in a pass
-                // leaves the scales of the model before it (a bench record,
-                // valve_leakage_turbulent-0, stopped there at 2.06 noise
-                // units; refitted until all settled, 1.55 after three)
-                for (const auto &[name, value] : r.baseline)
-                  if (const auto was = rr.baseline.find(name); was != rr.baseline.end() && was->second != 0.0)
-                    moved = std::max(moved, std::abs(value / was->second - 1.0));
-                bool turned_on = false;
-                if ((moved < 0.01 || pass + 1 == passes) && !left_out_tried)
-                  {
-                    // settled: a parameter the case leaves out is tried on
-                    // here, with the effect in the model (the baseline left
-                    // it off: there it is judged against the gap the effect
-                    // leaves, or takes that gap; coil_dynamics-1 on the
-                    // bench: off at a baseline's try, 1.2e6 with the coil)
-                    left_out_tried         = true;
-                    const auto free_before = named_ev.free.size();
-                    const auto tried_at    = Clock::now();
-                    rr.left_out            = calibrate_left_out(named_ev, r, refined, cores);
-                    turned_on              = named_ev.free.size() > free_before;
-                    for (const auto &b : rr.left_out)
-                      say("%s: %s, %.1f s", b.name.c_str(), b.note.c_str(),
-                          seconds_since(tried_at));
-                  }
-                u             = r.u;
-                rr.values     = r.values;
-                rr.force_gain = r.force_gain;
-                rr.baseline   = r.baseline;
-                current       = refined;
-                ++rr.refine_passes;
-                if (turned_on)
-                  {
-                    ++passes; // one more, with the noise scales at the new fit
-                    continue;
-                  }
-                if (moved < 0.01)
-                  break;
-              }
-            try
-              {
-                int        runs_here = 0;
-                const auto began     = Clock::now();
-                effect_uncertainty(named_ev, u, cores, rr, runs_here);
-                say("%s's standard errors and profiles: %d runs, %.1f s", c.effect.c_str(), runs_here,
-                    seconds_since(began));
-              }
-            catch (const std::exception &e)
-              {
-                rr.uncertainty_sentence = std::string("the parameters' standard errors could not be computed: ") +
-                                          e.what();
-              }
-            break;
-          }
-        if (rr.effect == "none")
-          {
-            rr.values     = {};
-            rr.force_gain = none.force_gain;
-            rr.baseline   = none.baseline;
-            rr.confidence = std::exp(-0.5 * (none.bic - bic_min)) / weight_sum;
-            rr.decision   = "no significant missing effect: " + reasons;
-            current       = predictions[0];
+          for (std::size_t i : judged)
+            {
+              const auto  &c     = fitted[i];
+              const double delta = none.bic - c.bic;
+              char         buf[512];
+              if (delta <= options.bic_threshold)
+                {
+                  std::snprintf(buf, sizeof buf, "%s: BIC better than none by only %.1f (needs > %.0f). ",
+                                c.effect.c_str(), delta, options.bic_threshold);
+                  reasons += buf;
+                  break; // the rest rank lower still
+                }
+              if (!(c.rms_heldout < none.rms_heldout))
+                {
+                  std::snprintf(buf, sizeof buf, "%s: held-out residual %.4g not below none's %.4g. ",
+                                c.effect.c_str(), c.rms_heldout, none.rms_heldout);
+                  reasons += buf;
+                  continue;
+                }
+              // the gap above the noise that the calibrated baseline leaves
+              // (training RMS): an effect must close at least half of it. BIC
+              // alone counts every sample as independent, which coloured noise
+              // and small model errors are not: over 10^4 samples a fit that
+              // closes 4 % of a 1.35-unit residual still "wins" by 600.
+              const double closed = gap(none.rms_train) > 0 ? 1.0 - gap(c.rms_train) / gap(none.rms_train) : 0.0;
+              if (!(closed >= options.min_gap_closed))
+                {
+                  std::snprintf(buf, sizeof buf,
+                                "%s: closes only %.0f %% of the gap above the noise that the calibrated baseline "
+                                "leaves (training RMS %.3g -> %.3g noise units; needs %.0f %%). ",
+                                c.effect.c_str(), 100 * closed, none.rms_train, c.rms_train,
+                                100 * options.min_gap_closed);
+                  reasons += buf;
+                  if (closed > nearest_closed)
+                    {
+                      nearest        = i;
+                      nearest_closed = closed;
+                    }
+                  continue;
+                }
+              // ... and half of the dominant feature above the noise (the
+              // feature is in noise units: no effect can take that unit away)
+              const double after = feature(predictions[i]);
+              if (!(gap(after) <= 0.5 * gap(feature_before)))
+                {
+                  std::snprintf(buf, sizeof buf,
+                                "%s: explains too little of the dominant feature (%s, %s half: %.3g -> %.3g noise "
+                                "units; half of it above the noise needed). ",
+                                c.effect.c_str(), signal.c_str(), half.c_str(), feature_before, after);
+                  reasons += buf;
+                  if (closed > nearest_closed)
+                    {
+                      nearest        = i;
+                      nearest_closed = closed;
+                    }
+                  continue;
+                }
+              rr.effect     = c.effect;
+              rr.values     = c.values;
+              rr.force_gain = c.force_gain;
+              rr.baseline   = c.baseline;
+              rr.confidence = std::exp(-0.5 * (c.bic - bic_min)) / weight_sum;
+              rr.signature_explained = true;
+              std::snprintf(buf, sizeof buf,
+                            "dominant residual feature (%s, %s half) %.3g -> %.3g of its swing", signal.c_str(),
+                            half.c_str(), feature_before, after);
+              rr.signature_detail = buf;
+              std::snprintf(buf, sizeof buf,
+                            "%s: BIC better than none by %.1f, held-out RMS %.4g vs none's %.4g, "
+                            "next best %s by %.1f; ",
+                            c.effect.c_str(), delta, c.rms_heldout, none.rms_heldout,
+                            order.size() > 1 ? fitted[order[order[0] == i ? 1 : 0]].effect.c_str() : "-",
+                            order.size() > 1 ? fitted[order[order[0] == i ? 1 : 0]].bic - c.bic : 0.0);
+              rr.decision = std::string(buf) + rr.signature_detail;
+              current     = predictions[i];
+              // Refine: the residual scales hold the model's response to the
+              // drive's noise, computed so far with the model as it was; the
+              // named effect can change that response many-fold (a soft outlet
+              // seal turns the outlet valve's jitter into outlet pressure's),
+              // which weighs the signals wrongly and biases the parameter.
+              // Recalibrate with the fitted model and refit locally, until the
+              // parameters settle (iteratively reweighted least squares).
+              std::vector<double> u = c.u;
+              Evaluator named_ev    = named_from ? *named_from : baseline_ev; // one fit: its runs at once
+              if (!named_from)
+                named_ev.use_effect(todo[i]);
+              named_ev.reference    = nullptr;
+              named_ev.run_threads  = cores;
+              if (options.refine_passes > 0)
+                {
+                  int checks = 0;
+                  rr.freed   = free_determined(named_ev, u, options.identifiability_sd, checks, cores);
+                  // The start, chosen again with the named model: the first
+                  // choice was made with the case's baseline, which a strong
+                  // effect leaves so far off that every start scored alike
+                  // (a record from mid-operation simulated from rest, its
+                  // start-up transient the largest residual left).
+                  if (options.start == "auto")
+                    {
+                      std::vector<StartState> was;
+                      for (const auto &rc : runs)
+                        was.push_back(rc.start);
+                      choose_start(named_ev.parameters(u), map, runs, options, cores);
+                      for (std::size_t r = 0; r < runs.size(); ++r)
+                        if (runs[r].start != was[r]) // a later round appends its own
+                          runs[r].start_revised +=
+                            (runs[r].start_revised.empty() ? to_string(was[r]) + " with the case's baseline" : "") +
+                            ", " + to_string(runs[r].start) + " with " + c.effect + "'s fit";
+                    }
+                }
+              bool left_out_tried = named_from.has_value(); // tried on before naming it
+              if (named_from)
+                rr.left_out = near_left;
+              for (int pass = 0, passes = options.refine_passes; pass < passes; ++pass)
+                {
+                  Evaluator ev = named_ev;
+                  calibrate_noise(ev.parameters(u), map, runs, options.relative_tolerance, cores);
+                  if (pass == 0)
+                    place_freed(ev, rr.freed, u, cores);
+                  std::vector<Signals> refined;
+                  auto                 r = fit(ev, refined, &u, pass == 0 && !rr.freed.empty() ? 0.05 : 0.02);
+                  if (r.failed)
+                    break;
+                  say("%s refitted (pass %d), noise scales from the model as fitted: BIC %.6g, %d runs, %.1f s",
+                      c.effect.c_str(), pass + 1, r.bic, r.evaluations, r.wall_time_s);
+                  double moved = std::abs(r.force_gain / rr.force_gain - 1.0);
+                  for (std::size_t j = 0; j < r.values.size(); ++j)
+                    moved = std::max(moved, std::abs(r.values[j] / rr.values[j] - 1.0));
+                  // every [uncertain] parameter the refit moved, not only the
+                  // freed ones: a free line bore that moved 9 % in a pass
+                  // leaves the scales of the model before it (a bench record,
+                  // valve_leakage_turbulent-0, stopped there at 2.06 noise
+                  // units; refitted until all settled, 1.55 after three)
+                  for (const auto &[name, value] : r.baseline)
+                    if (const auto was = rr.baseline.find(name); was != rr.baseline.end() && was->second != 0.0)
+                      moved = std::max(moved, std::abs(value / was->second - 1.0));
+                  bool turned_on = false;
+                  if ((moved < 0.01 || pass + 1 == passes) && !left_out_tried)
+                    {
+                      // settled: a parameter the case leaves out is tried on
+                      // here, with the effect in the model (the baseline left
+                      // it off: there it is judged against the gap the effect
+                      // leaves, or takes that gap; coil_dynamics-1 on the
+                      // bench: off at a baseline's try, 1.2e6 with the coil)
+                      left_out_tried         = true;
+                      const auto free_before = named_ev.free.size();
+                      const auto tried_at    = Clock::now();
+                      rr.left_out            = calibrate_left_out(named_ev, r, refined, cores);
+                      turned_on              = named_ev.free.size() > free_before;
+                      for (const auto &b : rr.left_out)
+                        say("%s: %s, %.1f s", b.name.c_str(), b.note.c_str(),
+                            seconds_since(tried_at));
+                    }
+                  u             = r.u;
+                  rr.values     = r.values;
+                  rr.force_gain = r.force_gain;
+                  rr.baseline   = r.baseline;
+                  current       = refined;
+                  ++rr.refine_passes;
+                  if (turned_on)
+                    {
+                      ++passes; // one more, with the noise scales at the new fit
+                      continue;
+                    }
+                  if (moved < 0.01)
+                    break;
+                }
+              try
+                {
+                  int        runs_here = 0;
+                  const auto began     = Clock::now();
+                  effect_uncertainty(named_ev, u, cores, rr, runs_here);
+                  say("%s's standard errors and profiles: %d runs, %.1f s", c.effect.c_str(), runs_here,
+                      seconds_since(began));
+                }
+              catch (const std::exception &e)
+                {
+                  rr.uncertainty_sentence = std::string("the parameters' standard errors could not be computed: ") +
+                                            e.what();
+                }
+              break;
+            }
+          // The nearest miss, judged again with the baseline complete. A
+          // parameter the case leaves out (the outlet passage) is tried on
+          // only at a named effect's fit; where nothing is named and more
+          // than the noise floor remains, "beyond the library" would be said
+          // of a baseline that still lacks it. So it is tried on at none's fit
+          // and at the fit of the candidate that came nearest (it passed the
+          // BIC and held-out rules and closed at least the share that earns a
+          // candidate its restarts, restart_closure x min_gap_closed), each
+          // from its points along the range as at a named fit, and that
+          // candidate is judged again against none with it, by the same
+          // rules. Only it: the others were further from being named.
+          if (look == 0 && rr.effect == "none" && nearest > 0 && !left_off.empty() &&
+              nearest_closed >= restart_closure * options.min_gap_closed &&
+              pooled_norms(runs, predictions[0], false).at("overall") > options.beyond_library_noise_units)
+            {
+              const auto      began   = Clock::now();
+              const auto      k       = nearest;
+              Evaluator       none_ev = baseline_ev;
+              CandidateResult none_with = fitted[0];
+              auto            none_made = predictions[0];
+              const auto      none_left = calibrate_left_out(none_ev, none_with, none_made, cores);
+              Evaluator       near_ev   = baseline_ev;
+              near_ev.use_effect(todo[k]);
+              CandidateResult near_with = fitted[k];
+              auto            near_made = predictions[k];
+              near_left                 = calibrate_left_out(near_ev, near_with, near_made, cores);
+              const auto said = [](const std::vector<BaselineParameter> &b) {
+                std::string out;
+                for (const auto &x : b)
+                  out += (out.empty() ? "" : ", ") + x.name + " " + x.note;
+                return out.empty() ? std::string("nothing to try (its effect sets it)") : out;
+              };
+              char buf[160];
+              std::snprintf(buf, sizeof buf, "%s, the nearest miss (%.0f %% of the gap closed)", fitted[k].effect.c_str(),
+                            100 * nearest_closed);
+              const std::string tried = std::string("the parameters the case leaves out, tried on at none's fit and at ") +
+                                        buf + ": at none's, " + said(none_left) + "; at " + fitted[k].effect +
+                                        "'s, " + said(near_left);
+              say("%s, %.1f s", tried.c_str(), seconds_since(began));
+              rr.near_miss = {fitted[k].effect, nearest_closed,   fitted[0].bic, fitted[0].rms_train,
+                              fitted[k].bic,    fitted[k].rms_train, none_left,     near_left, false};
+              const bool none_on = none_ev.free.size() > baseline_ev.free.size();
+              const bool near_on = std::any_of(near_left.begin(), near_left.end(),
+                                               [](const BaselineParameter &b) { return b.value != 0.0; });
+              if (none_on || near_on)
+                {
+                  saved_none = fitted[0];
+                  saved_near = fitted[k];
+                  saved_made = {predictions[0], predictions[k]};
+                  none_with.evaluations += fitted[0].evaluations;
+                  near_with.evaluations += fitted[k].evaluations;
+                  fitted[0]      = none_with;
+                  predictions[0] = none_made;
+                  fitted[k]      = near_with;
+                  predictions[k] = near_made;
+                  near_ev.reference = nullptr;
+                  named_from.emplace(near_ev);
+                  judged            = {k};
+                  reasons += "Then " + tried + "; judged again: ";
+                  continue;
+                }
+              reasons += "Then " + tried + ": nothing changed. ";
+            }
+          if (look == 1 && rr.effect == "none") // not named with them either: as before the try
+            {
+              const std::size_t k = judged.front();
+              fitted[0]           = *saved_none;
+              fitted[k]           = *saved_near;
+              predictions[0]      = saved_made[0];
+              predictions[k]      = saved_made[1];
+              reasons += "The fits without them stand. ";
+            }
+          else if (look == 1)
+            {
+              rr.near_miss.named = true;
+              rr.decision += "; named after its fit and none's were made again with the parameters the case "
+                             "leaves out (it was the nearest miss without them)";
+            }
+          if (rr.effect == "none")
+            {
+              rr.values     = {};
+              rr.force_gain = none.force_gain;
+              rr.baseline   = none.baseline;
+              rr.confidence = std::exp(-0.5 * (none.bic - bic_min)) / weight_sum;
+              rr.decision   = "no significant missing effect: " + reasons;
+              current       = predictions[0];
+            }
+          break;
           }
         for (auto &c : fitted)
           rr.candidates.push_back(c);
@@ -2516,6 +2621,22 @@ namespace rectify::diagnosis
                               {"fitted", b.value},
                               {"refitted", rr.baseline.count(b.name) ? json(rr.baseline.at(b.name)) : json()},
                               {"note", b.note}});
+        const auto tries = [](const std::vector<BaselineParameter> &b) {
+          json out = json::array();
+          for (const auto &x : b)
+            out.push_back({{"parameter", x.name}, {"on", x.value != 0.0}, {"fitted", x.value}, {"note", x.note}});
+          return out;
+        };
+        json near_miss; // null: not tried
+        if (!rr.near_miss.effect.empty())
+          near_miss = {{"effect", rr.near_miss.effect},
+                       {"gap_closed_without", rr.near_miss.closed},
+                       {"none_without", {{"bic", rr.near_miss.none_bic}, {"rms_train", rr.near_miss.none_rms_train}}},
+                       {"effect_without",
+                        {{"bic", rr.near_miss.effect_bic}, {"rms_train", rr.near_miss.effect_rms_train}}},
+                       {"at_none", tries(rr.near_miss.at_none)},
+                       {"at_the_effect", tries(rr.near_miss.at_effect)},
+                       {"named", rr.near_miss.named}};
         json uncertainty = json::array();
         for (const auto &q : rr.uncertainty)
           uncertainty.push_back({{"parameter", q.key},
@@ -2551,6 +2672,7 @@ namespace rectify::diagnosis
                           {"baseline_fit", check},
                           {"freed_at_the_named_fit", freed},
                           {"left_out_tried_at_the_named_fit", left_out},
+                          {"nearest_miss_with_left_out", near_miss},
                           {"confidence", rr.confidence},
                           {"decision", rr.decision},
                           {"signature_explained", rr.signature_explained},
@@ -2606,6 +2728,7 @@ namespace rectify::diagnosis
             {"baseline_fit", rounds.front()["baseline_fit"]},
             {"freed_at_the_named_fit", rounds.front()["freed_at_the_named_fit"]},
             {"left_out_tried_at_the_named_fit", rounds.front()["left_out_tried_at_the_named_fit"]},
+            {"nearest_miss_with_left_out", rounds.front()["nearest_miss_with_left_out"]},
             {"residual_before_fraction_of_swing", r.swing_before},
             {"residual_after_fraction_of_swing", r.swing_after},
             {"candidates", rounds.front()["candidates"]},

@@ -235,6 +235,20 @@ namespace rectify::diagnosis
     /// [uncertain] parameters the case leaves out (0), tried on again at
     /// the named effect's settled fit: on (fitted value) or off (0)
     std::vector<BaselineParameter> left_out;
+    /// Where nothing was named at first and more than the noise floor
+    /// remained: the candidate that came nearest, judged again after the
+    /// parameters the case leaves out were tried on at none's fit and at
+    /// its own (empty effect: not tried).
+    struct NearMiss
+    {
+      std::string                    effect;
+      double                         closed = 0; ///< share of the gap it closed without them
+      /// none's and its fits without them (the candidates' table holds the
+      /// fits with them where it was named)
+      double none_bic = 0, none_rms_train = 0, effect_bic = 0, effect_rms_train = 0;
+      std::vector<BaselineParameter> at_none, at_effect; ///< what each try did with them
+      bool                           named = false;
+    } near_miss;
     double                       confidence = 0; ///< BIC weight of the named candidate
     std::string                  decision;       ///< the reasoning in words
     std::vector<CandidateResult> candidates;

@@ -29,8 +29,16 @@
 # passage, declared uncertain in the reference case, is tried on at the
 # coil's fit and kept, within a factor 1.5 of the
 # bench's 4/3 rho l / A (the model's one lumped section stands for the
-# bench's distributed passage), and at most 2 noise units remain.
-#   tests/foreign_bench.sh RECTIFY SOURCE_DIR SCRATCH_DIR [laminar|turbulent|line|line-short|mid-start|passage]
+# bench's distributed passage), and at most 2 noise units remain. Form
+# `near-miss`: the study's orifice_flow-2 (a loaded record at 100 Hz from its
+# static state, Cd 0.468 behind the reed), where without the passage the
+# orifice closes 49 % of the gap (50 % needed) and nothing is named: the
+# passage is tried on at none's fit and at the orifice's, the orifice is
+# judged again against none with it and named, Cd within 20 %, at most 2
+# noise units left, and what it
+# closed without the passage is reported (between the 20 % that earns the
+# try and the 50 % that naming needs).
+#   tests/foreign_bench.sh RECTIFY SOURCE_DIR SCRATCH_DIR [laminar|turbulent|line|line-short|mid-start|passage|near-miss]
 set -euo pipefail
 rectify=$1 src=$2 out=$3 form=${4:-laminar}
 max_residual=1e9 min_explained=0.8
@@ -40,6 +48,7 @@ max_residual=1e9 min_explained=0.8
 # way back down promises enough that none is cut (they all end at none's
 # level, in searches that end by themselves, so their restarts are short)
 expect_cut=1
+diagnose_args=()  # as study.py runs the record: its scenario (no-flow unless given)
 at_100Hz=(--scenario no-flow --frequency 100)
 case "$form" in
   laminar) effect=valve_leakage key=leak_resistance_Pa_s_per_m3
@@ -54,17 +63,19 @@ case "$form" in
     record_args=(--seed 33522 --cycles 16) ;; # the study's draws, as study.py makes them: no-flow, 100 Hz, mid
   passage) effect=coil_dynamics key=coil_inductance_H max_residual=2
     record_args=(--seed 12736 --cycles 16) ;; # the study's coil_dynamics-1
+  near-miss) effect=orifice_flow key=orifice_discharge_coefficient min_explained=0.5 max_residual=2
+    diagnose_args=(--scenario loaded) record_args=(--seed 11280 --cycles 16) ;; # the study's orifice_flow-2
   *) echo "unknown form '$form'" >&2; exit 2 ;;
 esac
 py=python3
 [ -x /usr/bin/python3 ] && py=/usr/bin/python3
 rm -rf "$out" && mkdir -p "$out"
 "$py" "$src/bench/foreign/make_record.py" --effect "$effect" "${record_args[@]}" --out "$out/record"
-if [ "$form" = passage ]; then  # the reference case declares the passage
+if [ "$form" = passage ] || [ "$form" = near-miss ]; then  # the reference case declares the passage
   grep -qE '^"lines.outlet_inertance_Pa_s2_per_m3" = ' "$src/cases/reference.toml" ||
     { echo "the reference case does not declare the outlet passage" >&2; exit 1; }
 fi
-"$rectify" diagnose --data "$out/record/data.csv" --out "$out/d" > "$out/diagnose.log" 2>&1 ||
+"$rectify" diagnose --data "$out/record/data.csv" "${diagnose_args[@]}" --out "$out/d" > "$out/diagnose.log" 2>&1 ||
   { cat "$out/diagnose.log"; exit 1; }
 "$py" - "$out" "$effect" "$key" "$max_residual" "$min_explained" "$form" "$src" "$expect_cut" <<'PY'
 import json, math, re, sys
@@ -90,6 +101,9 @@ if t["start"] != "rest":  # a record from mid-operation is not simulated from re
 # never the named one, each closing less than the half of the gap that
 # naming needs; some, where expected (expect_cut above)
 none = next(c for c in s["candidates"] if c["effect"] == "none")
+near = s.get("nearest_miss_with_left_out")
+if near is not None and near.get("named"):  # the table's none is the fit with the passage: the notes' was without
+    none = near["none_without"]
 gap = lambda r: math.sqrt(max(r * r - 1, 0))
 cut = [c for c in s["candidates"] if c.get("search", "").startswith("not restarted")]
 for c in cut:
@@ -145,5 +159,20 @@ if form == "passage":  # the outlet passage, tried on at the named fit and kept 
     fitted = s["baseline"]["lines.outlet_inertance_Pa_s2_per_m3"]
     print("outlet passage", fitted, "bench", bench, tried)
     ok = ok and len(tried) == 1 and tried[0]["on"] and abs(math.log(fitted / bench)) < math.log(1.5)
+if form == "near-miss":  # named only after the passage was tried on at none's fit and at the orifice's
+    print("nearest miss", json.dumps(near))
+    ok = ok and near is not None and near["effect"] == effect and near["named"]
+    ok = ok and 0.2 <= near["gap_closed_without"] < 0.5
+    # the share it closed without, from the fits without (the same rule)
+    closed = 1 - gap(near["effect_without"]["rms_train"]) / gap(near["none_without"]["rms_train"]) if ok else -1
+    print("closed without the passage %.4f (reported %.4f)" % (closed, near["gap_closed_without"] if ok else -1))
+    ok = ok and abs(closed - near["gap_closed_without"]) < 1e-6
+    tries = near["at_none"] + near["at_the_effect"] if ok else []
+    ok = ok and len(tries) == 2 and all(b["parameter"] == "lines.outlet_inertance_Pa_s2_per_m3" for b in tries)
+    ok = ok and any(b["on"] for b in tries) and "nearest miss" in s["decision"]
+    same = lambda bs: [(b["parameter"], b["on"], b["fitted"]) for b in bs]
+    ok = ok and same(s["left_out_tried_at_the_named_fit"]) == same(near["at_the_effect"])
+else:  # named at once: the nearest miss is never tried
+    ok = ok and near is None
 sys.exit(0 if ok else 1)
 PY
