@@ -249,6 +249,16 @@ namespace rectify::diagnosis
       std::vector<BaselineParameter> at_none, at_effect; ///< what each try did with them
       bool                           named = false;
     } near_miss;
+    /// The candidate that passed every rule but sets a parameter the case
+    /// leaves out (a hose: the outlet passage's key), judged again against
+    /// none with that parameter tried on (empty effect: none did)
+    struct SetByEffect
+    {
+      std::string                    effect;
+      std::vector<BaselineParameter> at_none; ///< what none's try did with it
+      bool                           named = false;
+      std::string                    reason;  ///< why not, where not
+    } set_by_effect;
     double                       confidence = 0; ///< BIC weight of the named candidate
     std::string                  decision;       ///< the reasoning in words
     std::vector<CandidateResult> candidates;
