@@ -2298,7 +2298,7 @@ namespace rectify::diagnosis
               if (look == 0 && !named_from && sets_left_out(todo[i]))
                 {
                   const auto &t = none_tried();
-                  rr.set_by_effect = {c.effect, t.left, true, ""};
+                  rr.set_by_effect = {c.effect, t.left, true, "", fitted[0].bic, fitted[0].rms_train};
                   if (t.on)
                     {
                       auto again = rules(i, t.fit, t.made);
@@ -2717,7 +2717,9 @@ namespace rectify::diagnosis
           set_by_effect = {{"effect", rr.set_by_effect.effect},
                            {"at_none", tries(rr.set_by_effect.at_none)},
                            {"named", rr.set_by_effect.named},
-                           {"reason", rr.set_by_effect.reason}};
+                           {"reason", rr.set_by_effect.reason},
+                           {"none_without",
+                            {{"bic", rr.set_by_effect.none_bic}, {"rms_train", rr.set_by_effect.none_rms_train}}}};
         json uncertainty = json::array();
         for (const auto &q : rr.uncertainty)
           uncertainty.push_back({{"parameter", q.key},

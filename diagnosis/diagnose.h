@@ -258,6 +258,7 @@ namespace rectify::diagnosis
       std::vector<BaselineParameter> at_none; ///< what none's try did with it
       bool                           named = false;
       std::string                    reason;  ///< why not, where not
+      double none_bic = 0, none_rms_train = 0; ///< none's fit without it (the table's none is with it where on)
     } set_by_effect;
     double                       confidence = 0; ///< BIC weight of the named candidate
     std::string                  decision;       ///< the reasoning in words

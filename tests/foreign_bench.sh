@@ -102,8 +102,11 @@ if t["start"] != "rest":  # a record from mid-operation is not simulated from re
 # naming needs; some, where expected (expect_cut above)
 none = next(c for c in s["candidates"] if c["effect"] == "none")
 near = s.get("nearest_miss_with_left_out")
+sets = s.get("left_out_judged_with_the_effect_that_sets_it")
 if near is not None and near.get("named"):  # the table's none is the fit with the passage: the notes' was without
     none = near["none_without"]
+elif sets is not None and sets["named"] and any(b["on"] for b in sets["at_none"]):  # the same for a hose
+    none = sets["none_without"]
 gap = lambda r: math.sqrt(max(r * r - 1, 0))
 cut = [c for c in s["candidates"] if c.get("search", "").startswith("not restarted")]
 for c in cut:
@@ -177,7 +180,6 @@ else:  # named at once: the nearest miss is never tried
 # a hose sets the outlet passage's key, which the case leaves out: it is
 # named only where it also beats none with the passage tried on (null for
 # the effects that set nothing the case leaves out)
-sets = s.get("left_out_judged_with_the_effect_that_sets_it")
 print("judged with what it sets:", json.dumps(sets))
 if effect == "line_inertance":
     ok = ok and sets is not None and sets["effect"] == effect and sets["named"] and sets["reason"] == ""
