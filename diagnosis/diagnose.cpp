@@ -2133,7 +2133,6 @@ namespace rectify::diagnosis
         // its own (see "The nearest miss" below)
         std::vector<std::size_t> judged = order;
         std::optional<Evaluator> named_from;        // the nearest miss's evaluator, with them
-        std::vector<BaselineParameter> near_left;   // what its try did with them
         std::optional<CandidateResult> saved_none, saved_near; // the fits without them
         std::vector<std::vector<Signals>> saved_made;         // and their predictions
         // none's fit with the parameters the case leaves out tried on, made
@@ -2375,7 +2374,7 @@ namespace rectify::diagnosis
                 }
               bool left_out_tried = named_from.has_value(); // tried on before naming it
               if (named_from)
-                rr.left_out = near_left;
+                rr.left_out = rr.near_miss.at_effect; // what its try did with them
               for (int pass = 0, passes = options.refine_passes; pass < passes; ++pass)
                 {
                   Evaluator ev = named_ev;
@@ -2468,7 +2467,7 @@ namespace rectify::diagnosis
               near_ev.use_effect(todo[k]);
               CandidateResult near_with = fitted[k];
               auto            near_made = predictions[k];
-              near_left                 = calibrate_left_out(near_ev, near_with, near_made, cores);
+              const auto      near_left = calibrate_left_out(near_ev, near_with, near_made, cores);
               char buf[160];
               std::snprintf(buf, sizeof buf, "%s, the nearest miss (%.0f %% of the gap closed)", fitted[k].effect.c_str(),
                             100 * nearest_closed);
