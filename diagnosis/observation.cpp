@@ -316,6 +316,23 @@ namespace rectify::diagnosis
     return r;
   }
 
+  double periodic_coil_current(const system::Drive &drive, double R, double L)
+  {
+    // L I' + R I = V(t), V the first cycle repeated: I(T) = I(0) gives
+    // I(0) = (1/L) int_0^T exp(-a (T - s)) V(s) ds / (1 - exp(-a T)), a = R/L
+    // (the trapezoidal rule on 4000 intervals: a cycle holds 200 samples)
+    const double      T = 1.0 / drive.frequency_Hz(), a = R / L;
+    constexpr int     m = 4000;
+    const double      h = T / m;
+    double            sum = 0;
+    for (int k = 0; k <= m; ++k)
+      {
+        const double s = k * h;
+        sum += (k == 0 || k == m ? 0.5 : 1.0) * std::exp(-a * (T - s)) * drive.value(s);
+      }
+    return sum * h / L / -std::expm1(-a * T);
+  }
+
   std::vector<double> state_from_record(system::Model &model, const RecordedState &r, double drive_at_0,
                                         double rod_length_m)
   {
@@ -332,8 +349,17 @@ namespace rectify::diagnosis
     if (state::line_node_p < n && c.L_line > 0)
       for (std::size_t k = 0; k < c.n_line_segments; ++k)
         y[state::line_segment_node(k)] = p_out;
+    // the coil current: with a voltage drive and the coil's inductance, the
+    // periodic response to the record's first cycle (the record shows the
+    // pump in operation, where the current lags the voltage); else the
+    // drive's own value
+    double current = drive_at_0 * (model.drive().is_voltage() ? 1.0 / c.R_coil : 1.0);
+    if (model.drive().is_voltage() && c.coil_dynamics && c.L_coil > 0 && state::coil_current < n)
+      {
+        current                  = periodic_coil_current(model.drive(), c.R_coil, c.L_coil);
+        y[state::coil_current] = current;
+      }
     // the rod: measured, or in its static balance F = k_eff x_p + A_pi p_ch
-    const double current = drive_at_0 * (model.drive().is_voltage() ? 1.0 / c.R_coil : 1.0);
     const double x_p     = given(r.strain) ? r.strain * rod_length_m :
                                              (c.force_per_ampere * current - c.A_pi * p_ch) / c.k_eff;
     y[state::piston_x] = x_p;

@@ -98,10 +98,17 @@ namespace rectify::diagnosis
   /// fast as measured, and the accumulator and low side where the circuit's
   /// oil volume, conserved since rest, puts them. What the record does not
   /// show (reed and piston velocities, the inlet reed, a line's flow) starts
-  /// at rest and settles within the first cycle, which the residuals skip.
+  /// at rest and settles within the first cycle, which the residuals skip;
+  /// a voltage-driven coil with inductance starts at its periodic current
+  /// (periodic_coil_current).
   /// Sets the model's valve states to match.
   std::vector<double> state_from_record(system::Model &model, const RecordedState &r, double drive_at_0,
                                         double rod_length_m);
+
+  /// The current at t = 0 of a coil (resistance R, inductance L) in
+  /// periodic operation under `drive`'s voltage, its first cycle repeated:
+  /// what a record that starts mid-operation has in its coil.
+  double periodic_coil_current(const system::Drive &drive, double R, double L);
 
   /// The measured drive is low-passed at this harmonic of the pumping
   /// frequency before it drives the model: its measurement noise would

@@ -804,6 +804,56 @@ TEST(ForeignData, TheRecordedStateIsWhatWasMeasuredAndConservesTheOil)
     EXPECT_EQ(e[k], 0.0) << k;
 }
 
+// A record that starts mid-operation shows no coil current: with a voltage
+// drive and the coil's inductance the start takes the periodic current.
+// Against the exact periodic response of L I' + R I = V0 + V1 sin(w t)
+// (I = V0/R + V1 (R sin w t - w L cos w t) / (R^2 + w^2 L^2)), and against
+// the model's own coil current 30 cycles into a run under that voltage.
+TEST(ForeignData, AVoltageDrivenCoilStartsAtItsPeriodicCurrent)
+{
+  namespace s = rectify::system::state;
+  auto p      = system::SystemParameters::from_case(CaseFile::load(reference_case_path()));
+  p.drive.coil_dynamics          = "on";
+  p.transducer.coil_inductance_H = 2e-3;
+  const double R = p.transducer.coil_resistance_ohm, L = 2e-3, f = 150, w = 2 * std::numbers::pi * f;
+  const double V0 = 10 * R, V1 = 9 * R; // about the reference drive's 10 A bias and 18 A p-p
+  std::vector<double> t, v;
+  for (int i = 0; i <= 200 * 40; ++i)
+    {
+      t.push_back(i / (200.0 * f));
+      v.push_back(V0 + V1 * std::sin(w * t.back()));
+    }
+  const auto   drive = system::Drive::from_samples(t, v, f, true, "test");
+  const double exact = V0 / R - V1 * w * L / (R * R + w * w * L * L);
+  // the drive's linear interpolation between 200 samples a cycle: 1e-4
+  EXPECT_NEAR(periodic_coil_current(drive, R, L), exact, 1e-4 * V0 / R);
+  EXPECT_LT(exact, V0 / R - 0.4 * V1 / R); // the lag matters here: 150 Hz is the coil's corner
+
+  const auto    map = system::load_valve_maps(p);
+  system::Model model(p, map, system::ValveModel::dynamic, system::Scenario::no_flow, drive);
+  model.reset();
+  system::RunOptions ro;
+  ro.relative_tolerance        = 1e-8;
+  ro.absolute_tolerance_factor = p.solver.absolute_tolerance_factor;
+  auto io                      = system::integrator_options(model, ro);
+  io.quiet                     = true;
+  system::Integrator integrator(model, 0.0, model.initial_state(), io);
+  integrator.advance_to(30.0 / f);
+  const double  running = integrator.state()[s::coil_current];
+  RecordedState r; // nothing measured: the state's other parts as at rest
+  system::Model fresh(p, map, system::ValveModel::dynamic, system::Scenario::no_flow, drive);
+  const auto    e = state_from_record(fresh, r, drive.value(0.0), p.transducer.rod_length_m);
+  EXPECT_NEAR(e[s::coil_current], running, 2e-4 * V0 / R);
+  // the rod's static balance takes that current, not V(0)/R
+  const auto &c = fresh.constants();
+  EXPECT_NEAR(e[s::piston_x], c.force_per_ampere * e[s::coil_current] / c.k_eff, 1e-12);
+  // without the coil's inductance no such state
+  p.drive.coil_dynamics = "off";
+  system::Model plain(p, map, system::ValveModel::dynamic, system::Scenario::no_flow, drive);
+  const auto    q = state_from_record(plain, r, drive.value(0.0), p.transducer.rod_length_m);
+  EXPECT_NEAR(q[s::piston_x], c.force_per_ampere * (V0 / R) / c.k_eff, 1e-12);
+}
+
 // A position sensor has no absolute zero: the model's actuator position is
 // compared after a shift by the mean of (data - model), its initial
 // position fitted in closed form. Data: the model's own loaded run (4 A
