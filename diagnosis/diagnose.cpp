@@ -2688,19 +2688,20 @@ namespace rectify::diagnosis
                            {"standard_error_of_range", b.sd_unit},
                            {"note", b.note},
                            {"refitted", rr.baseline.count(b.name) ? json(rr.baseline.at(b.name)) : json()}});
-        json left_out = json::array();
-        for (const auto &b : rr.left_out)
-          left_out.push_back({{"parameter", b.name},
-                              {"on", b.value != 0.0},
-                              {"fitted", b.value},
-                              {"refitted", rr.baseline.count(b.name) ? json(rr.baseline.at(b.name)) : json()},
-                              {"note", b.note}});
-        const auto tries = [](const std::vector<BaselineParameter> &b) {
+        // a left-out parameter's tries; at the named fit also its value
+        // after the refits
+        const auto tries = [&](const std::vector<BaselineParameter> &b, bool with_refitted = false) {
           json out = json::array();
           for (const auto &x : b)
-            out.push_back({{"parameter", x.name}, {"on", x.value != 0.0}, {"fitted", x.value}, {"note", x.note}});
+            {
+              json t = {{"parameter", x.name}, {"on", x.value != 0.0}, {"fitted", x.value}, {"note", x.note}};
+              if (with_refitted)
+                t["refitted"] = rr.baseline.count(x.name) ? json(rr.baseline.at(x.name)) : json();
+              out.push_back(std::move(t));
+            }
           return out;
         };
+        const json left_out = tries(rr.left_out, true);
         json near_miss; // null: not tried
         if (!rr.near_miss.effect.empty())
           near_miss = {{"effect", rr.near_miss.effect},
