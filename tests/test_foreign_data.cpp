@@ -51,6 +51,21 @@ namespace
     return run;
   }
 
+  /// The state of `model` (reset, from rest, tolerance 1e-8) at time t.
+  std::vector<double> state_at(system::Model &model, const system::SystemParameters &p, double t)
+  {
+    model.reset();
+    system::RunOptions ro;
+    ro.relative_tolerance        = 1e-8;
+    ro.absolute_tolerance_factor = p.solver.absolute_tolerance_factor;
+    auto io                      = system::integrator_options(model, ro);
+    io.quiet                     = true;
+    system::Integrator integrator(model, 0.0, model.initial_state(), io);
+    integrator.advance_to(t);
+    const auto span = integrator.state();
+    return {span.begin(), span.end()};
+  }
+
   /// DIR/rig.toml: the reference case with each `from` text replaced by
   /// its `to` (a rig whose baseline differs from the case's), beside the
   /// case's resistance table. Fails the test if a `from` is not there.
@@ -763,17 +778,8 @@ TEST(ForeignData, TheRecordedStateIsWhatWasMeasuredAndConservesTheOil)
   const double f     = 100;
   const auto   drive = system::Drive::sine(f, 20, 10);
   system::Model model(p, map, system::ValveModel::dynamic, system::Scenario::no_flow, drive);
-  model.reset();
-  system::RunOptions ro;
-  ro.relative_tolerance        = 1e-8;
-  ro.absolute_tolerance_factor = p.solver.absolute_tolerance_factor;
-  auto io                      = system::integrator_options(model, ro);
-  io.quiet                     = true;
-  system::Integrator integrator(model, 0.0, model.initial_state(), io);
-  const double       t1 = 30.0 / f; // the drive's minimum: the outlet valve shut
-  integrator.advance_to(t1);
-  const auto          span = integrator.state();
-  std::vector<double> y(span.begin(), span.end());
+  const double  t1 = 30.0 / f; // the drive's minimum: the outlet valve shut
+  const auto    y  = state_at(model, p, t1);
   ASSERT_TRUE(model.closed(0));
   const double  rod = p.transducer.rod_length_m;
   RecordedState r;
@@ -831,15 +837,7 @@ TEST(ForeignData, AVoltageDrivenCoilStartsAtItsPeriodicCurrent)
 
   const auto    map = system::load_valve_maps(p);
   system::Model model(p, map, system::ValveModel::dynamic, system::Scenario::no_flow, drive);
-  model.reset();
-  system::RunOptions ro;
-  ro.relative_tolerance        = 1e-8;
-  ro.absolute_tolerance_factor = p.solver.absolute_tolerance_factor;
-  auto io                      = system::integrator_options(model, ro);
-  io.quiet                     = true;
-  system::Integrator integrator(model, 0.0, model.initial_state(), io);
-  integrator.advance_to(30.0 / f);
-  const double  running = integrator.state()[s::coil_current];
+  const double  running = state_at(model, p, 30.0 / f)[s::coil_current];
   RecordedState r; // nothing measured: the state's other parts as at rest
   system::Model fresh(p, map, system::ValveModel::dynamic, system::Scenario::no_flow, drive);
   const auto    e = state_from_record(fresh, r, drive.value(0.0), p.transducer.rod_length_m);
