@@ -459,14 +459,19 @@ namespace rectify::diagnosis
     /// A frequency's pair grids (ringing_start) are run only where its
     /// bases and lines along each parameter come within this factor of the
     /// effect's weak end over 3 cycles: a frequency goes further only where
-    /// its grid beats the weak end. On the bench's 32 records and the
-    /// diagnosis benchmark (75 frequencies with both run) the pair grids
-    /// took at most 1.94 x off the lines' best and never turned a frequency
-    /// round (0.88-1.33 x where a hose was there to be found, whose lines
-    /// already beat the weak end 1.5-18 fold). A frequency they cannot turn
-    /// round costs most of the line's runs in a loaded record: 588 of its
-    /// 871 in piston_friction-0, whose lines stay 3.9 and 5.3 x above.
-    constexpr double pair_grid_reach = 3.0;
+    /// its grid beats the weak end. Every grid point is set to ring at the
+    /// frequency, so the pairs only move the ringing's amplitude, damping
+    /// and shape about what the lines already try. On the bench's 32
+    /// records and the diagnosis benchmark (75 frequencies with both run)
+    /// the pair grids took at most 1.94 x off the lines' best and never
+    /// turned a frequency round: none whose lines stayed at or above the
+    /// weak end had its pair grid beat it (where a hose was there to be
+    /// found its lines already beat the weak end 1.5-18 fold, and the pairs
+    /// changed that 0.88-1.33 x). So the lines must beat the weak end. A
+    /// frequency the pairs cannot turn round costs most of the line's runs:
+    /// 588 of 871 in piston_friction-0 (lines 3.9 and 5.3 x above), 588 of
+    /// 1356 in the diagnosis benchmark (lines 1.005 and 1.085 x).
+    constexpr double pair_grid_reach = 1.0;
 
     /// A start for an effect whose first parameter sets a lightly damped
     /// ringing (EffectParameter::ringing_Hz), or nothing. The residual's
@@ -770,7 +775,7 @@ namespace rectify::diagnosis
           else if (t.lines > 0)
             std::snprintf(buf, sizeof buf,
                           "%.0f Hz: the lines along the baseline %.3g x the residual with it off over 3 cycles, its "
-                          "pair grids not run (within %.0f x needed)",
+                          "pair grids not run (below %.3g x needed)",
                           t.f, t.lines, pair_grid_reach);
           else if (t.six < 0)
             std::snprintf(buf, sizeof buf, "%.0f Hz: its grid %.3g x the residual with it off over 3 cycles, no further",

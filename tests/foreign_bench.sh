@@ -131,19 +131,19 @@ for c in cut:
 ok = ok and (len(cut) >= 1 or not expect_cut)
 # the line's ringing starts (diagnose.cpp, ringing_start): what its note says
 # of each frequency must agree with the rule it states - the pair grids not
-# run only where the lines along the baseline stay 3 x above the residual
-# with the line off, a grid refined only where it beat that, a start only
-# where the refined point beats it over 6 cycles; in a hose's record the
+# run only where the lines along the baseline do not come below the reach
+# it names (x the residual with the line off), a grid refined only where it
+# beat that, a start only where the refined point beats it over 6 cycles; in a hose's record the
 # named line is found from its ringing (at least one start)
 line = next((c for c in s["candidates"] if c["effect"] == "line_inertance"), None)
 entries = line.get("ringing", "").split("; ") if line and line.get("ringing") else []
 starts = skipped = 0
 for e in entries:
     print("line ringing:", e)
-    m = re.match(r"(\d+) Hz: the lines along the baseline (\S+) x .*pair grids not run \(within 3 x needed\)$", e)
+    m = re.match(r"(\d+) Hz: the lines along the baseline (\S+) x .*pair grids not run \(below (\S+) x needed\)$", e)
     if m:
         skipped += 1
-        ok = ok and float(m.group(2)) >= 3
+        ok = ok and float(m.group(2)) >= float(m.group(3))
         continue
     m = re.match(r"(\d+) Hz: its grid (\S+) x the residual with it off over 3 cycles, no further$", e)
     if m:
