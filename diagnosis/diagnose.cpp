@@ -114,7 +114,11 @@ namespace rectify::diagnosis
 
       /// An evaluator with every [uncertain] parameter free, starting at the
       /// case's values; but one the case leaves out (off_at_zero), which is
-      /// held off: the named effect's fit tries it on (calibrate_left_out).
+      /// held off: the named effect's fit tries it on (calibrate_left_out);
+      /// and one that does nothing in the case's model (the friction's
+      /// shape without friction: SystemParameters::inert_reason), held at
+      /// the case's value: a named effect that makes it act may free it
+      /// (free_determined).
       static Evaluator make(const system::SystemParameters &base, const system::ValveMaps &map,
                             const std::vector<RunCase> &runs, const Effect *effect,
                             const DiagnoseOptions &options, unsigned run_threads,
@@ -126,6 +130,8 @@ namespace rectify::diagnosis
             const auto &q = base.uncertain[j];
             ev.held.push_back(uncertain_to_unit(q, base.real_value(q.table, q.key)));
             if (q.off_at_zero && !(base.real_value(q.table, q.key) > 0.0)) // (a later round may have it on)
+              continue;
+            if (!base.inert_reason(q.table, q.key).empty())
               continue;
             ev.free.push_back(j);
             ev.nuisance_start.push_back(ev.held.back());
@@ -1281,17 +1287,25 @@ namespace rectify::diagnosis
     }
 
     /// The same fit with every [uncertain] parameter free (but those the
-    /// effect supersedes): the evaluator and the point (effect's positions,
-    /// every free uncertain one's, the gain).
-    std::pair<Evaluator, std::vector<double>> with_every_uncertain(const Evaluator &ev, const std::vector<double> &u)
+    /// effect supersedes, and those that do nothing in the model at u):
+    /// the evaluator and the point (effect's positions, every free
+    /// uncertain one's, the gain). One that does nothing in the case's
+    /// model but acts with the effect (the friction's shape with friction)
+    /// counts only where it is free already, or with `effect_shape`.
+    std::pair<Evaluator, std::vector<double>> with_every_uncertain(const Evaluator &ev, const std::vector<double> &u,
+                                                                   bool effect_shape = false)
     {
       const std::size_t ne  = ev.n_effect();
       Evaluator         all = ev;
       all.free.clear();
       const std::vector<double> w = ev.uncertain_units(u);
+      const auto                p = ev.parameters(u);
       std::vector<double>       ua(u.begin(), u.begin() + static_cast<std::ptrdiff_t>(ne));
       for (std::size_t j = 0; j < ev.base.uncertain.size(); ++j)
-        if (!ev.is_superseded(j) && !ev.is_off(j, w))
+        if (const auto &q = ev.base.uncertain[j];
+            !ev.is_superseded(j) && !ev.is_off(j, w) && p.inert_reason(q.table, q.key).empty() &&
+            (effect_shape || ev.base.inert_reason(q.table, q.key).empty() ||
+             std::find(ev.free.begin(), ev.free.end(), j) != ev.free.end()))
           {
             all.free.push_back(j);
             ua.push_back(w[j]);
@@ -1498,8 +1512,12 @@ namespace rectify::diagnosis
     /// parameters in the covariance, so that a parameter traded against the
     /// effect stays held. `ev` is the named effect's evaluator, `u` its fit;
     /// both are updated to the wider free set. Returns the freed ones.
+    /// Without `effect_shape`, the held parameters of the case's model;
+    /// with it, only those that do nothing in the case's model and act
+    /// with the effect (its shape: the friction's with piston_friction).
     std::vector<BaselineParameter> free_determined(Evaluator &ev, std::vector<double> &u, double limit,
-                                                   int &runs_of_the_model, unsigned threads)
+                                                   int &runs_of_the_model, unsigned threads,
+                                                   bool effect_shape = false)
     {
       const auto       &base = ev.base;
       const std::size_t ne = ev.n_effect(), nq = base.uncertain.size();
@@ -1507,12 +1525,21 @@ namespace rectify::diagnosis
       for (std::size_t j : ev.free)
         was_free[j] = true;
       const std::vector<double> w0 = ev.uncertain_units(u);
+      const auto                p0 = ev.parameters(u);
       for (std::size_t j = 0; j < nq; ++j)
-        if (ev.is_superseded(j) || ev.is_off(j, w0))
-          was_free[j] = true; // not a candidate for freeing
-      if (std::all_of(was_free.begin(), was_free.end(), [](bool b) { return b; }))
+        if (ev.is_superseded(j) || ev.is_off(j, w0) ||
+            !p0.inert_reason(base.uncertain[j].table, base.uncertain[j].key).empty())
+          was_free[j] = true; // not a candidate for freeing (does nothing here)
+      // held, and not this call's to free: stays held (its column still counts)
+      std::vector<bool> skip(nq, false);
+      for (std::size_t j = 0; j < nq; ++j)
+        skip[j] = !was_free[j] && base.inert_reason(base.uncertain[j].table, base.uncertain[j].key).empty() == effect_shape;
+      bool any = false;
+      for (std::size_t j = 0; j < nq; ++j)
+        any = any || (!was_free[j] && !skip[j]);
+      if (!any)
         return {};
-      const auto [all, ua]         = with_every_uncertain(ev, u);
+      const auto [all, ua]         = with_every_uncertain(ev, u, effect_shape);
       const std::vector<double> w  = ev.uncertain_units(u);
       const std::vector<double> r0 = all.residual_vector(ua);
       ++runs_of_the_model;
@@ -1539,13 +1566,14 @@ namespace rectify::diagnosis
       for (std::size_t c = 0; c < all.free.size(); ++c)
         {
           const std::size_t j = all.free[c], k = ne + c;
-          if (!was_free[j] && !d.active[k])
+          if (!was_free[j] && (!d.active[k] || skip[j]))
             continue;
           free.push_back(j);
           un.push_back(w[j]);
           if (was_free[j])
             continue;
           freed.push_back(baseline_parameter(base, base.uncertain[j], w[j], d.sd[k], true, d.note[k]));
+          freed.back().note = d.note[k]; // where it is freed is the case's value, not a fit against a bound
         }
       un.push_back(u.back());
       ev.free = free;
@@ -2086,6 +2114,13 @@ namespace rectify::diagnosis
               q.off_at_zero && !(baseline_ev.base.real_value(q.table, q.key) > 0.0))
             left_off.push_back(baseline_parameter(baseline_ev.base, q, 0.0, 0.0, false,
                                                   "left out until an effect is named, then tried on with it"));
+          else if (const auto why = baseline_ev.base.inert_reason(q.table, q.key); !why.empty())
+            {
+              left_off.push_back(baseline_parameter(baseline_ev.base, q, baseline_ev.held[j], 0.0, false, ""));
+              // not fitted: the case's value, not a fit against a bound
+              left_off.back().note = "held at the case's value: " + why +
+                                     "; freed with a named effect that makes it act, where the data determine it";
+            }
         int checks = 0;
         if (!fitted[0].failed && fitted[0].u.size() == baseline_ev.dimension())
           rr.baseline_check =
@@ -2380,16 +2415,22 @@ namespace rectify::diagnosis
               bool left_out_tried = named_from.has_value(); // tried on before naming it
               if (named_from)
                 rr.left_out = rr.near_miss.at_effect; // what its try did with them
-              for (int pass = 0, passes = options.refine_passes; pass < passes; ++pass)
+              // the refits until the parameters settle, the first from
+              // `placed` (just freed) placed along their ranges; returns the
+              // last refit's training RMS (noise units), or -1 if none ran
+              const auto refine = [&](const std::vector<BaselineParameter> &placed) {
+                double last = -1;
+                for (int pass = 0, passes = options.refine_passes; pass < passes; ++pass)
                 {
                   Evaluator ev = named_ev;
                   calibrate_noise(ev.parameters(u), map, runs, options.relative_tolerance, cores);
                   if (pass == 0)
-                    place_freed(ev, rr.freed, u, cores);
+                    place_freed(ev, placed, u, cores);
                   std::vector<Signals> refined;
-                  auto                 r = fit(ev, refined, &u, pass == 0 && !rr.freed.empty() ? 0.05 : 0.02);
+                  auto                 r = fit(ev, refined, &u, pass == 0 && !placed.empty() ? 0.05 : 0.02);
                   if (r.failed)
                     break;
+                  last = r.rms_train;
                   say("%s refitted (pass %d), noise scales from the model as fitted: BIC %.6g, %d runs, %.1f s",
                       c.effect.c_str(), pass + 1, r.bic, r.evaluations, r.wall_time_s);
                   double moved = std::abs(r.force_gain / rr.force_gain - 1.0);
@@ -2433,6 +2474,30 @@ namespace rectify::diagnosis
                     }
                   if (moved < 0.01)
                     break;
+                }
+                return last;
+              };
+              const double left = refine(rr.freed);
+              // The named effect's own shape (the friction's Stribeck rise and
+              // sign): parameters that do nothing in the case's model and act
+              // with the effect, freed where the data determine them, but only
+              // where the settled fit, with the passage tried, still leaves a
+              // gap above the noise: the effect's plain form explains the rest
+              // (piston_friction-0 on the bench: 0.66 noise units with
+              // Coulomb's law and the passage; freeing the shape there took
+              // 24 s and left 0.59)
+              if (options.refine_passes > 0 && left > 1.0)
+                {
+                  int  checks = 0;
+                  auto shape  = free_determined(named_ev, u, options.identifiability_sd, checks, cores, true);
+                  for (const auto &b : shape)
+                    say("%s: freed with %s (its shape; the settled fit left %.3g noise units)", b.name.c_str(),
+                        c.effect.c_str(), left);
+                  if (!shape.empty())
+                    {
+                      refine(shape);
+                      rr.freed.insert(rr.freed.end(), shape.begin(), shape.end());
+                    }
                 }
               try
                 {

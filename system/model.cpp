@@ -123,6 +123,8 @@ namespace rectify::system
     L_coil         = p.transducer.coil_inductance_H;
     F_coulomb      = p.load.coulomb_friction_N;
     v_friction     = p.load.friction_velocity_scale_m_per_s;
+    friction_rise  = p.load.static_friction_ratio - 1.0;
+    v_stribeck     = p.load.stribeck_velocity_m_per_s;
     const double w2 = 2.0 * M_PI * p.reed.second_mode_frequency_Hz;
     k_r2 = reed.mass * w2 * w2;
     b_r2 = 2.0 * p.reed.damping_ratio * std::sqrt(k_r2 * reed.mass);
@@ -610,6 +612,12 @@ namespace rectify::system
     return f;
   }
 
+  double Model::friction_force(double v) const
+  {
+    const double rise = c_.friction_rise > 0 ? c_.friction_rise * std::exp(-(v / c_.v_stribeck) * (v / c_.v_stribeck)) : 0.0;
+    return c_.F_coulomb * (1.0 + rise) * std::tanh(v / c_.v_friction);
+  }
+
   void Model::rhs(double t, std::span<const double> y, std::span<double> ydot) const
   {
     using namespace state;
@@ -625,8 +633,7 @@ namespace rectify::system
                      y[chamber_p] * c_.A_pi) /
                     c_.m_f;
     ydot[actuator_x] = y[actuator_v];
-    const double friction =
-      c_.F_coulomb > 0 ? c_.F_coulomb * std::tanh(y[actuator_v] / c_.v_friction) : 0.0;
+    const double friction = c_.F_coulomb > 0 ? friction_force(y[actuator_v]) : 0.0;
     ydot[actuator_v] = ((y[high_p] - y[low_p]) * c_.A_po - c_.b_l * y[actuator_v] -
                         c_.k_l * y[actuator_x] - friction) /
                        c_.m_l;

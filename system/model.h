@@ -131,7 +131,8 @@ namespace rectify::system
     double C_line_node = 0, V_line_node = 0; ///< each node between two segments: a segment's oil
     bool   coil_dynamics;          ///< integrate the coil current (voltage drive)
     double R_coil, L_coil;
-    double F_coulomb, v_friction;  ///< output-piston friction F_c tanh(v / v_s)
+    /// output-piston friction F_c [1 + rise exp(-(v / v_st)^2)] tanh(v / v_s)
+    double F_coulomb, v_friction, friction_rise, v_stribeck;
     double k_r2, b_r2;             ///< second reed mode (k_r2 = 0: off)
 
     ModelConstants(const SystemParameters &p, Scenario scenario);
@@ -244,6 +245,9 @@ namespace rectify::system
     void set_closed(std::size_t v, bool closed) { closed_[v] = closed; }
     std::size_t n_seat_impacts() const { return n_impacts_; }
 
+    /// The output piston's friction force at its velocity v ([load]):
+    /// F_c [1 + (F_s / F_c - 1) exp(-(v / v_st)^2)] tanh(v / v_s).
+    double                      friction_force(double v) const;
     const ModelConstants       &constants() const { return c_; }
     const Drive                &drive() const { return drive_; }
     const maps::MapSet         &valve_map(std::size_t v) const { return maps_[v]; }

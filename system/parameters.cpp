@@ -225,6 +225,9 @@ namespace rectify::system
     p.coulomb_friction_N = f.real(t, "coulomb_friction_N", p.coulomb_friction_N, non_negative);
     p.friction_velocity_scale_m_per_s = f.real(t, "friction_velocity_scale_m_per_s",
                                                p.friction_velocity_scale_m_per_s, positive);
+    p.static_friction_ratio =
+      f.real(t, "static_friction_ratio", p.static_friction_ratio, Bounds::closed(1.0, 100.0));
+    p.stribeck_velocity_m_per_s = f.real(t, "stribeck_velocity_m_per_s", p.stribeck_velocity_m_per_s, positive);
     return p;
   }
 
@@ -338,6 +341,9 @@ namespace rectify::system
         const auto range = f.reals("uncertain", name, {}, Bounds::positive());
         if (range.size() != 2 || !(range[0] < range[1]))
           throw InputError(where + ": expected [lower, upper] with 0 < lower < upper");
+        if (name == "load.static_friction_ratio" && range[0] < 1.0)
+          throw InputError(where + " = [" + format_number(range[0]) + ", " + format_number(range[1]) +
+                           "]: the breakaway force is at least the Coulomb force (a ratio of 1 or more)");
         // 0 is a value the case leaves out (the thesis's model has no such
         // term, e.g. the outlet passage's inertance): the data may still
         // ask for one inside the range (UncertainParameter::off_at_zero)
@@ -372,6 +378,19 @@ namespace rectify::system
       apply_map_sets(f, p);
     read_uncertain(f, p);
     return p;
+  }
+
+  std::string SystemParameters::inert_reason(const std::string &table, const std::string &key) const
+  {
+    if (table != "load")
+      return "";
+    const bool shape = key == "friction_velocity_scale_m_per_s" || key == "static_friction_ratio" ||
+                       key == "stribeck_velocity_m_per_s";
+    if (shape && !(load.coulomb_friction_N > 0))
+      return "no piston friction in this model ([load] coulomb_friction_N = 0)";
+    if (key == "stribeck_velocity_m_per_s" && !(load.static_friction_ratio > 1))
+      return "no Stribeck rise in this model ([load] static_friction_ratio = 1)";
+    return "";
   }
 
   double *SystemParameters::real_field(const std::string &table, const std::string &key)
@@ -421,6 +440,8 @@ namespace rectify::system
       {"load.stiffness_N_per_m", &load.stiffness_N_per_m},
       {"load.coulomb_friction_N", &load.coulomb_friction_N},
       {"load.friction_velocity_scale_m_per_s", &load.friction_velocity_scale_m_per_s},
+      {"load.static_friction_ratio", &load.static_friction_ratio},
+      {"load.stribeck_velocity_m_per_s", &load.stribeck_velocity_m_per_s},
       {"drive.current_pp_A", &drive.current_pp_A},
       {"drive.current_bias_A", &drive.current_bias_A}};
     const std::string name = table + "." + key;
@@ -552,7 +573,9 @@ namespace rectify::system
         {"stiffness_N_per_m", load.stiffness_N_per_m},
         {"no_flow_mass_kg", load.no_flow_mass_kg},
         {"coulomb_friction_N", load.coulomb_friction_N},
-        {"friction_velocity_scale_m_per_s", load.friction_velocity_scale_m_per_s}}},
+        {"friction_velocity_scale_m_per_s", load.friction_velocity_scale_m_per_s},
+        {"static_friction_ratio", load.static_friction_ratio},
+        {"stribeck_velocity_m_per_s", load.stribeck_velocity_m_per_s}}},
       {"drive",
        {{"current_pp_A", drive.current_pp_A},
         {"current_bias_A", drive.current_bias_A},

@@ -169,10 +169,16 @@ namespace rectify::system
     double damping_N_s_per_m   = 0.0;
     double stiffness_N_per_m   = 0.0;
     double no_flow_mass_kg     = 1e12;
-    /// Coulomb friction on the output piston (diagnosis effect
-    /// `piston_friction`): F_c tanh(v / v_s); 0 for none.
+    /// Friction on the output piston (diagnosis effect `piston_friction`),
+    /// Coulomb's with a Stribeck rise at low speed:
+    /// F_c [1 + (r - 1) exp(-(v / v_st)^2)] tanh(v / v_s), where r = F_s / F_c
+    /// is the breakaway force over the Coulomb force (1: no rise, Coulomb's
+    /// alone), v_st the Stribeck velocity and v_s the smoothing velocity of
+    /// the sign; F_c = 0 for none.
     double coulomb_friction_N = 0.0;
     double friction_velocity_scale_m_per_s = 1e-3;
+    double static_friction_ratio = 1.0;
+    double stribeck_velocity_m_per_s = 1e-3;
     static LoadParameters from_case(const CaseFile &file);
   };
 
@@ -246,6 +252,13 @@ namespace rectify::system
     {
       return *const_cast<SystemParameters *>(this)->real_field(table, key);
     }
+
+    /// Why [table] key does nothing in the model these parameters make, or
+    /// "" where it acts: the friction's shape without friction ([load]
+    /// coulomb_friction_N = 0), the Stribeck velocity without a Stribeck
+    /// rise (static_friction_ratio = 1). A diagnosis holds such an
+    /// [uncertain] parameter out of its fits until it acts.
+    std::string inert_reason(const std::string &table, const std::string &key) const;
 
     /// Reads every table; with map sets, checks each against the case's
     /// [geometry], [fluid] and [reed_material] and takes k_r and m_r from it.

@@ -46,6 +46,8 @@ namespace
     p.lines.outlet_inertance_Pa_s2_per_m3        = 3e7;
     p.lines.outlet_line_segments                 = 3;
     p.load.coulomb_friction_N                    = 20;
+    p.load.static_friction_ratio                 = 1.3;
+    p.load.stribeck_velocity_m_per_s             = 2e-3;
     p.reed.second_mode_frequency_Hz              = 4000;
     return p;
   }
@@ -387,6 +389,51 @@ TEST(Effects, FrictionSlowsTheLoadedActuatorAndSecondModeAddsTipCompliance)
   m.rhs(0.0, y, ydot);
   const Flows f = m.flows(y);
   EXPECT_NEAR(ydot[state::outlet_reed2_v], (f.outlet_force - c.k_r2 * 2e-6) / c.reed.mass, 1e-9 * std::abs(c.k_r2 * 2e-6 / c.reed.mass));
+}
+
+// The friction law, F_c [1 + (r - 1) exp(-(v / v_st)^2)] tanh(v / v_s):
+// Coulomb's alone at r = 1 (the former law, bit for bit), the breakaway
+// rise at low speed, odd in v, F_c far above v_st; and what the actuator's
+// equation of motion subtracts.
+TEST(Effects, PistonFrictionHasAStribeckRiseAtLowSpeed)
+{
+  auto p                                 = reference();
+  p.load.coulomb_friction_N              = 20;
+  p.load.friction_velocity_scale_m_per_s = 0.5e-3;
+  Model coulomb = make(p, Scenario::loaded, 100, 4, 2);
+  for (double v : {-3e-3, -1e-4, 0.0, 2e-4, 1e-3, 5e-2})
+    EXPECT_EQ(coulomb.friction_force(v), 20 * std::tanh(v / 0.5e-3)) << v;
+  p.load.static_friction_ratio     = 1.5;
+  p.load.stribeck_velocity_m_per_s = 2e-3;
+  Model stribeck = make(p, Scenario::loaded, 100, 4, 2);
+  // at v = v_st the rise has fallen to 1/e of (r - 1)
+  EXPECT_NEAR(stribeck.friction_force(2e-3), 20 * (1 + 0.5 / std::exp(1.0)) * std::tanh(4.0), 1e-12);
+  EXPECT_NEAR(stribeck.friction_force(-2e-3), -stribeck.friction_force(2e-3), 1e-12);
+  EXPECT_EQ(stribeck.friction_force(0.0), 0.0);
+  // the breakaway peak, above F_c and below r F_c, at a velocity between v_s and v_st
+  double peak = 0, at = 0;
+  for (double v = 1e-5; v < 1e-2; v *= 1.01)
+    if (stribeck.friction_force(v) > peak)
+      {
+        peak = stribeck.friction_force(v);
+        at   = v;
+      }
+  EXPECT_GT(peak, 1.3 * 20);
+  EXPECT_LT(peak, 1.5 * 20);
+  EXPECT_GT(at, 0.5e-3);
+  EXPECT_LT(at, 2e-3);
+  EXPECT_NEAR(stribeck.friction_force(5e-2), 20.0, 1e-9); // sliding fast: Coulomb's (exp(-625))
+  // in the actuator's equation of motion: the two models differ by the rise alone
+  std::vector<double> y(coulomb.n_states(), 0.0), a(coulomb.n_states()), b(coulomb.n_states());
+  y[state::high_p]     = 2e6;
+  y[state::actuator_v] = 1e-3;
+  coulomb.rhs(0.0, y, a);
+  stribeck.rhs(0.0, y, b);
+  const double m_l = coulomb.constants().m_l;
+  EXPECT_NEAR(a[state::actuator_v] - b[state::actuator_v],
+              (stribeck.friction_force(1e-3) - coulomb.friction_force(1e-3)) / m_l, 1e-9 * std::abs(a[state::actuator_v]));
+  EXPECT_NEAR(stribeck.friction_force(1e-3) - coulomb.friction_force(1e-3),
+              20 * 0.5 * std::exp(-0.25) * std::tanh(2.0), 1e-12);
 }
 
 TEST(Effects, ASeatedTwoModeReedIsHeldAtItsTipAndRingsAsThePinnedReed)

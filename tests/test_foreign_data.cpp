@@ -428,9 +428,10 @@ TEST(ForeignData, CycleScatterMeasuresColouredNoiseAndIgnoresABuildUp)
 // around the case's own value; anything else is refused, naming the key.
 TEST(ForeignData, UncertainTableIsCheckedWhereItIsRead)
 {
-  // the reference case declares five, the outlet passage's inertance last
+  // the reference case declares eight: four of the rig, the outlet
+  // passage's inertance, the piston friction's shape last
   const auto p = system::SystemParameters::from_case(CaseFile::load(reference_case_path()));
-  ASSERT_EQ(p.uncertain.size(), 5u);
+  ASSERT_EQ(p.uncertain.size(), 8u);
   EXPECT_EQ(p.uncertain[0].name(), "lines.diameter_m");
   EXPECT_DOUBLE_EQ(p.real_value("lines", "diameter_m"), 4.572e-3);
   // the fifth, the outlet passage's inertance, at 0 (the thesis's model
@@ -462,6 +463,30 @@ TEST(ForeignData, UncertainTableIsCheckedWhereItIsRead)
   refused("\"lines.diameter_m\" = [5e-3, 1e-2]", "outside");
   refused("\"transducer.piezomagnetic_coefficient_m_per_A\" = [6e-9, 8e-9]", "always fitted");
   refused("diameter_m = [1e-3, 1e-2]", "\"table.key\"");
+  refused("\"load.static_friction_ratio\" = [0.5, 3]", "at least the Coulomb force");
+}
+
+// The piston friction's shape ([load] friction_velocity_scale_m_per_s,
+// static_friction_ratio, stribeck_velocity_m_per_s) does nothing without
+// friction, and the Stribeck velocity nothing without a Stribeck rise: a
+// diagnosis holds such a key out of its fits until an effect makes it act.
+TEST(ForeignData, TheFrictionsShapeActsOnlyWithFriction)
+{
+  auto p = system::SystemParameters::from_case(CaseFile::load(reference_case_path()));
+  for (const auto &q : p.uncertain)
+    {
+      const bool shape = q.table == "load";
+      EXPECT_EQ(p.inert_reason(q.table, q.key).empty(), !shape) << q.name();
+    }
+  EXPECT_NE(p.inert_reason("load", "static_friction_ratio").find("coulomb_friction_N = 0"), std::string::npos);
+  p.load.coulomb_friction_N = 20;
+  EXPECT_EQ(p.inert_reason("load", "friction_velocity_scale_m_per_s"), "");
+  EXPECT_EQ(p.inert_reason("load", "static_friction_ratio"), "");
+  EXPECT_NE(p.inert_reason("load", "stribeck_velocity_m_per_s").find("static_friction_ratio = 1"),
+            std::string::npos);
+  p.load.static_friction_ratio = 1.3;
+  EXPECT_EQ(p.inert_reason("load", "stribeck_velocity_m_per_s"), "");
+  EXPECT_EQ(p.inert_reason("lines", "diameter_m"), "");
 }
 
 // A record cut from the middle of a run (cycle 30 of 46, at a third of a

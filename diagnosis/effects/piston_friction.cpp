@@ -1,4 +1,4 @@
-// piston_friction: Coulomb friction of the output piston's seals.
+// piston_friction: friction of the output piston's seals (Coulomb's, with a Stribeck rise).
 #include "diagnosis/effect.h"
 
 namespace rectify::diagnosis
@@ -22,8 +22,10 @@ namespace rectify::diagnosis
   {
     return std::make_shared<PistonFriction>(
       "piston_friction",
-      "Coulomb friction on the output piston, F_c tanh(v / v_s) with v_s = "
-      "[load] friction_velocity_scale_m_per_s",
+      "friction on the output piston, F_c [1 + (r - 1) exp(-(v / v_st)^2)] tanh(v / v_s): Coulomb's, with a "
+      "Stribeck rise to r F_c at low speed; the shape from [load] (friction_velocity_scale_m_per_s, "
+      "static_friction_ratio, stribeck_velocity_m_per_s; declared [uncertain], they are freed at its named fit "
+      "where the data determine them)",
       "the loaded actuator moves slower by a constant force's worth, F_c / A_po of pressure "
       "difference; the outlet pressure sits higher",
       // 12 grid points: 0.33 decade apart, as 9 were over the former 0.1..100
