@@ -603,6 +603,12 @@ TEST(ForeignData, ABaselineParameterFittedAtTheEndOfItsRangeIsReportedSo)
           EXPECT_EQ(note.find("end of its range"), std::string::npos) << b.dump();
           continue;
         }
+      if (note.find("freed with a named effect that makes it act") != std::string::npos)
+        { // one that does nothing in this model (the friction's shape without friction): held at the case's value, not fitted
+          EXPECT_EQ(note.find("end of its range"), std::string::npos) << b.dump();
+          EXPECT_EQ(v, b["case_value"].get<double>()) << b.dump();
+          continue;
+        }
       // its position in the range as the fit sees it: the gain linear, the
       // [uncertain] parameters logarithmic; the ends' last 1e-3 count
       const double unit   = b["parameter"] == "force_gain" ? (v - lo) / (hi - lo) : std::log(v / lo) / std::log(hi / lo);
