@@ -264,7 +264,14 @@ namespace rectify
       throw InputError(where(table, key) + (v ? line_of(*v) : " (default)") + " = " +
                        format_number(value) + ": must be " + bounds.describe());
     record(table, key, format_number(value), bounds.describe());
+    real_bounds_[table + "." + key] = bounds;
     return value;
+  }
+
+  const Bounds *CaseFile::bounds_read(const std::string &table, const std::string &key) const
+  {
+    const auto it = real_bounds_.find(table + "." + key);
+    return it == real_bounds_.end() ? nullptr : &it->second;
   }
 
   std::vector<double> CaseFile::reals(const std::string &table, const std::string &key,

@@ -105,6 +105,11 @@ namespace rectify
     /// them (keys.csv), and a test checks each has a stated range.
     std::vector<KeyRecord> read_keys() const;
 
+    /// The admissible range a real key was read with (real()), or nullptr
+    /// if no stage has read it as a real yet: a range declared elsewhere for
+    /// that key ([uncertain]) must lie inside it.
+    const Bounds *bounds_read(const std::string &table, const std::string &key) const;
+
     /// "file [table] key" for messages.
     std::string where(const std::string &table, const std::string &key) const;
 
@@ -116,6 +121,7 @@ namespace rectify
     std::filesystem::path       base_dir_;
     mutable std::set<std::string> known_; // "table.key"
     mutable std::map<std::string, KeyRecord> read_; // "table.key"
+    mutable std::map<std::string, Bounds>    real_bounds_; // "table.key", as real() read it
     void record(const std::string &table, const std::string &key, const std::string &value,
                 const std::string &range) const;
   };

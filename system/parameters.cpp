@@ -341,9 +341,15 @@ namespace rectify::system
         const auto range = f.reals("uncertain", name, {}, Bounds::positive());
         if (range.size() != 2 || !(range[0] < range[1]))
           throw InputError(where + ": expected [lower, upper] with 0 < lower < upper");
-        if (name == "load.static_friction_ratio" && range[0] < 1.0)
-          throw InputError(where + " = [" + format_number(range[0]) + ", " + format_number(range[1]) +
-                           "]: the breakaway force is at least the Coulomb force (a ratio of 1 or more)");
+        // a fit moves the parameter over the whole range: each end must be
+        // a value the key itself admits (a friction ratio of at least 1, a
+        // restitution below 1, ...)
+        if (const Bounds *admits = f.bounds_read(u.table, u.key))
+          for (const double end : range)
+            if (!admits->contains(end))
+              throw InputError(where + " = [" + format_number(range[0]) + ", " + format_number(range[1]) +
+                               "]: " + format_number(end) + " lies outside what [" + u.table + "] " + u.key +
+                               " admits (" + admits->describe() + ")");
         // 0 is a value the case leaves out (the thesis's model has no such
         // term, e.g. the outlet passage's inertance): the data may still
         // ask for one inside the range (UncertainParameter::off_at_zero)

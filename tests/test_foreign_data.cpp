@@ -463,7 +463,11 @@ TEST(ForeignData, UncertainTableIsCheckedWhereItIsRead)
   refused("\"lines.diameter_m\" = [5e-3, 1e-2]", "outside");
   refused("\"transducer.piezomagnetic_coefficient_m_per_A\" = [6e-9, 8e-9]", "always fitted");
   refused("diameter_m = [1e-3, 1e-2]", "\"table.key\"");
-  refused("\"load.static_friction_ratio\" = [0.5, 3]", "at least the Coulomb force");
+  // each end inside what the key itself admits, for any key
+  refused("\"load.static_friction_ratio\" = [0.5, 3]", "0.5 lies outside what [load] static_friction_ratio admits (in [1, 100])");
+  refused("\"load.static_friction_ratio\" = [1, 300]", "300 lies outside");
+  refused("\"cylinder.high_side_fraction\" = [0.2, 1]", "1 lies outside what [cylinder] high_side_fraction admits (in (0, 1))");
+  refused("\"reed.restitution\" = [0.1, 1.5]", "1.5 lies outside");
 }
 
 // The piston friction's shape ([load] friction_velocity_scale_m_per_s,
