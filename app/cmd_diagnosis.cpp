@@ -459,8 +459,11 @@ namespace rectify::app
                         " time(s) with the residual's noise scales recomputed from the fitted model (the "
                         "candidates' table below shows the first fit, on which the choice was made)\n";
                 for (const auto &b : rr.freed)
-                  md += "- `" + b.name + "` freed for the refits: held at the baseline fit, determined at this "
-                        "effect's fit (standard error " + sci(b.sd_unit) + " of its range" +
+                  md += "- `" + b.name + "` freed for the refits: " +
+                        (b.effect_shape ? "the effect's own shape, held at the case's value while the model had "
+                                          "no such effect, determined at this effect's settled fit"
+                                        : "held at the baseline fit, determined at this effect's fit") +
+                        " (standard error " + sci(b.sd_unit) + " of its range" +
                         (b.note.empty() ? "" : "; " + b.note) + "); refitted from the case's " + sci(b.nominal) +
                         " to " + sci(rr.baseline.count(b.name) ? rr.baseline.at(b.name) : b.value) + "\n";
                 for (const auto &b : rr.left_out)

@@ -1573,7 +1573,8 @@ namespace rectify::diagnosis
           if (was_free[j])
             continue;
           freed.push_back(baseline_parameter(base, base.uncertain[j], w[j], d.sd[k], true, d.note[k]));
-          freed.back().note = d.note[k]; // where it is freed is the case's value, not a fit against a bound
+          freed.back().note         = d.note[k]; // where it is freed is the case's value, not a fit against a bound
+          freed.back().effect_shape = effect_shape;
         }
       un.push_back(u.back());
       ev.free = free;
@@ -2418,7 +2419,7 @@ namespace rectify::diagnosis
               // the refits until the parameters settle, the first from
               // `placed` (just freed) placed along their ranges; returns the
               // last refit's training RMS (noise units), or -1 if none ran
-              const auto refine = [&](const std::vector<BaselineParameter> &placed) {
+              const auto refine = [&](const std::vector<BaselineParameter> &placed, const char *what) {
                 double last = -1;
                 for (int pass = 0, passes = options.refine_passes; pass < passes; ++pass)
                 {
@@ -2431,8 +2432,8 @@ namespace rectify::diagnosis
                   if (r.failed)
                     break;
                   last = r.rms_train;
-                  say("%s refitted (pass %d), noise scales from the model as fitted: BIC %.6g, %d runs, %.1f s",
-                      c.effect.c_str(), pass + 1, r.bic, r.evaluations, r.wall_time_s);
+                  say("%s refitted (%spass %d), noise scales from the model as fitted: BIC %.6g, %d runs, %.1f s",
+                      c.effect.c_str(), what, pass + 1, r.bic, r.evaluations, r.wall_time_s);
                   double moved = std::abs(r.force_gain / rr.force_gain - 1.0);
                   for (std::size_t j = 0; j < r.values.size(); ++j)
                     moved = std::max(moved, std::abs(r.values[j] / rr.values[j] - 1.0));
@@ -2477,7 +2478,7 @@ namespace rectify::diagnosis
                 }
                 return last;
               };
-              const double left = refine(rr.freed);
+              const double left = refine(rr.freed, "");
               // The named effect's own shape (the friction's Stribeck rise and
               // sign): parameters that do nothing in the case's model and act
               // with the effect, freed where the data determine them, but only
@@ -2495,7 +2496,7 @@ namespace rectify::diagnosis
                         c.effect.c_str(), left);
                   if (!shape.empty())
                     {
-                      refine(shape);
+                      refine(shape, "with its shape, ");
                       rr.freed.insert(rr.freed.end(), shape.begin(), shape.end());
                     }
                 }
@@ -2757,6 +2758,8 @@ namespace rectify::diagnosis
           freed.push_back({{"parameter", b.name},
                            {"standard_error_of_range", b.sd_unit},
                            {"note", b.note},
+                           {"freed_as", b.effect_shape ? "the named effect's shape (held while the model lacked it)"
+                                                       : "a baseline parameter the named effect's fit determines"},
                            {"refitted", rr.baseline.count(b.name) ? json(rr.baseline.at(b.name)) : json()}});
         // a left-out parameter's tries; at the named fit also its value
         // after the refits

@@ -152,6 +152,10 @@ namespace rectify::diagnosis
     double      sd_unit = 0;   ///< standard error as a share of its (log) range
     bool        identifiable = true;
     std::string note;          ///< why held, strongest correlation
+    /// freed at a named fit as the effect's own shape (it does nothing in
+    /// the case's model: the friction's with piston_friction), not as a
+    /// baseline parameter the effect's fit determines
+    bool effect_shape = false;
   };
 
   struct CandidateResult

@@ -206,6 +206,8 @@ print("friction's shape at none's fit:", {k: (b["identifiable"], b["note"][:60])
 ok = ok and len(held) == 3 and all(not b["identifiable"] and "no piston friction" in b["note"] for b in held.values())
 freed = [b["parameter"] for b in s["freed_at_the_named_fit"] if b["parameter"] in shape]
 print("friction's shape freed at the named fit:", freed)
+# each freed one says how: the effect's shape, or a baseline parameter
+ok = ok and all(("shape" in b["freed_as"]) == (b["parameter"] in shape) for b in s["freed_at_the_named_fit"])
 if form == "friction":
     ok = ok and len(freed) >= 1
 else:
