@@ -1431,9 +1431,12 @@ namespace rectify::diagnosis
     }
 
     /// An [uncertain] parameter as reported: at position `unit`, its case
-    /// value, range and standard error.
+    /// value, range and standard error. Where `unit` is a fit's, an end of
+    /// the range it sits on is said too; where it is the case's value (held
+    /// or just freed: `fitted` false), not.
     BaselineParameter baseline_parameter(const system::SystemParameters &base, const system::UncertainParameter &q,
-                                         double unit, double sd_unit, bool identifiable, const std::string &note)
+                                         double unit, double sd_unit, bool identifiable, const std::string &note,
+                                         bool fitted = true)
     {
       BaselineParameter b;
       b.name         = q.name();
@@ -1445,7 +1448,8 @@ namespace rectify::diagnosis
       b.identifiable = identifiable;
       // off (the case's 0) is not an end the data push against
       b.note = b.value == 0.0 ? (note.empty() ? "" : note + "; ") + "off, as the case has it" :
-                                with_bound_note(note, unit);
+               fitted         ? with_bound_note(note, unit) :
+                                note;
       return b;
     }
 
@@ -1572,8 +1576,8 @@ namespace rectify::diagnosis
           un.push_back(w[j]);
           if (was_free[j])
             continue;
-          freed.push_back(baseline_parameter(base, base.uncertain[j], w[j], d.sd[k], true, d.note[k]));
-          freed.back().note         = d.note[k]; // where it is freed is the case's value, not a fit against a bound
+          // where it is freed is the value it was held at, not a fit
+          freed.push_back(baseline_parameter(base, base.uncertain[j], w[j], d.sd[k], true, d.note[k], false));
           freed.back().effect_shape = effect_shape;
         }
       un.push_back(u.back());
@@ -2117,10 +2121,11 @@ namespace rectify::diagnosis
                                                   "left out until an effect is named, then tried on with it"));
           else if (const auto why = baseline_ev.base.inert_reason(q.table, q.key); !why.empty())
             {
-              left_off.push_back(baseline_parameter(baseline_ev.base, q, baseline_ev.held[j], 0.0, false, ""));
-              // not fitted: the case's value, not a fit against a bound
-              left_off.back().note = "held at the case's value: " + why +
-                                     "; freed with a named effect that makes it act, where the data determine it";
+              left_off.push_back(baseline_parameter(baseline_ev.base, q, baseline_ev.held[j], 0.0, false,
+                                                    "held at the case's value: " + why +
+                                                      "; freed with a named effect that makes it act, where the "
+                                                      "data determine it",
+                                                    false));
             }
         int checks = 0;
         if (!fitted[0].failed && fitted[0].u.size() == baseline_ev.dimension())
