@@ -192,7 +192,11 @@ namespace rectify::app
                                                 }())},
                                  {"reed second mode", second_mode.text()},
                                  {"start", o.options.start},
-                                 {"training", format_number(o.options.training_fraction) + " of each run; the rest held out"},
+                                 {"training", format_number(o.options.training_fraction) + " of each run; the rest held out; "
+                                                "candidates compared on at most " +
+                                                (o.options.compared_cycles > 0 ? format_number(o.options.compared_cycles) +
+                                                                                   " training cycles in all" :
+                                                                                 std::string("every training cycle"))},
                                  {"rounds", std::to_string(o.options.rounds)},
                                  {"out", o.out_dir}});
       o.options.progress = [](const std::string &line) { std::fprintf(stderr, "  %s\n", line.c_str()); };
@@ -397,6 +401,12 @@ namespace rectify::app
                                     std::string("every sample")) +
                   " |\n";
           }
+        if (result.compared_cycles_per_run > 0)
+          md += "\nThe candidates (none too) were fitted and compared on the first " +
+                sci(result.compared_cycles_per_run) +
+                " training cycles of each run after its settling (the whole training part of a shorter run; "
+                "at most " + sci(o.options.compared_cycles) +
+                " in all, `--compared-cycles`); the named effect was then refitted on every training cycle.\n";
         if (!result.rounds.front().baseline_check.empty())
           {
             md += "\n## The baseline, calibrated before naming anything\n\nFitted with `none` (every [uncertain] "
@@ -545,6 +555,11 @@ namespace rectify::app
       cmd->add_flag("--second-effect", o->second, "after naming one effect, look for a second");
       cmd->add_option("--training-fraction", o->options.training_fraction,
                       "part of each run the fit sees; the rest is held out")->capture_default_str();
+      cmd->add_option("--compared-cycles", o->options.compared_cycles,
+                      "the candidates are fitted and compared on at most this many training cycles in all, "
+                      "the same number from each run; the named effect is then refitted on all (0: all)")
+        ->check(CLI::Range(0.0, 1e6))
+        ->capture_default_str();
       cmd->add_option("--max-evaluations", o->options.max_evaluations, "optimiser evaluations per candidate")
         ->check(CLI::Range(1, 1000000))
         ->capture_default_str();

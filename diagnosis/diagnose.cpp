@@ -1133,6 +1133,35 @@ namespace rectify::diagnosis
     return rc;
   }
 
+  double screening_cycles_per_run(const std::vector<RunCase> &runs, double cap)
+  {
+    if (!(cap > 0))
+      return 0;
+    std::vector<double> have; // training cycles after the settling, per run
+    double              total = 0;
+    for (const auto &rc : runs)
+      {
+        const auto  &t  = rc.run.time_s;
+        const double dt = (t.back() - t.front()) / static_cast<double>(t.size() - 1);
+        const double n  = static_cast<double>(rc.n_train > rc.n_skip ? rc.n_train - rc.n_skip : 0);
+        have.push_back(n * dt * rc.setup.frequency_Hz);
+        total += have.back();
+      }
+    if (total <= cap)
+      return 0;
+    // the level h with sum over runs of min(have, h) = cap
+    std::sort(have.begin(), have.end());
+    double left = cap;
+    for (std::size_t i = 0; i < have.size(); ++i)
+      {
+        const double share = left / static_cast<double>(have.size() - i);
+        if (have[i] >= share)
+          return std::max(3.0, share);
+        left -= have[i];
+      }
+    return 0; // not reached: total > cap
+  }
+
   void calibrate_noise(const system::SystemParameters &base, const system::ValveMaps &map,
                        std::vector<RunCase> &runs, double rtol, unsigned threads)
   {
@@ -2106,6 +2135,16 @@ namespace rectify::diagnosis
         // force gain; then which of them the data determine (the others are
         // held at this fit), and every candidate from there.
         Evaluator baseline_ev = Evaluator::make(base, map, runs, nullptr, options, cores, &current);
+        // the candidates are compared on the first training cycles of each
+        // run (DiagnoseOptions::compared_cycles); the named one is refitted
+        // on all (named_ev below)
+        baseline_ev.horizon_cycles = screening_cycles_per_run(runs, options.compared_cycles);
+        if (round == 0)
+          result.compared_cycles_per_run = baseline_ev.horizon_cycles;
+        if (baseline_ev.horizon_cycles > 0)
+          say("candidates fitted and compared on the first %.3g training cycles of each run after its settling "
+              "(at most %.3g in all); the named effect refitted on every training cycle",
+              baseline_ev.horizon_cycles, options.compared_cycles);
         fitted[0]             = fit(baseline_ev, predictions[0]);
         // the parameters the case leaves out stay off here: they are tried
         // on at the named effect's fit (calibrate_left_out), not before
@@ -2396,6 +2435,7 @@ namespace rectify::diagnosis
                 named_ev.use_effect(todo[i]);
               named_ev.reference    = nullptr;
               named_ev.run_threads  = cores;
+              named_ev.horizon_cycles = 0; // its refits see every training cycle
               if (options.refine_passes > 0)
                 {
                   int checks = 0;
@@ -2736,6 +2776,7 @@ namespace rectify::diagnosis
                 cj["k"]            = c.k;
                 cj["bic"]          = c.bic;
                 cj["aic"]          = c.aic;
+                cj["compared_samples"] = c.n_train; // its BIC's n (compared_cycles_per_run)
                 cj["rms_train"]    = c.rms_train;
                 cj["rms_heldout"]  = c.rms_heldout;
                 cj["evaluations"]  = c.evaluations;
@@ -2886,6 +2927,7 @@ namespace rectify::diagnosis
             {"explained_fraction", r.explained_fraction},
             {"residual_baseline_fit", r.residual_baseline},
             {"baseline_standard_error_factor", r.baseline_sd_factor},
+            {"compared_cycles_per_run", r.compared_cycles_per_run},
             {"baseline", first.baseline},
             {"baseline_fit", rounds.front()["baseline_fit"]},
             {"freed_at_the_named_fit", rounds.front()["freed_at_the_named_fit"]},
@@ -2905,7 +2947,12 @@ namespace rectify::diagnosis
                            "model's response to the drive's noise), per signal over every run; overall: RMS "
                            "over the signals. About 1 when the model explains the data to within its noise"},
               {"residual_before_fraction_of_swing", "the same residual over the measured signal's RMS about its mean"},
-              {"bic", "n ln(SSR/n) + k ln n on the training samples (first part of each run)"},
+              {"bic", "n ln(SSR/n) + k ln n on the training samples (first part of each run; for the "
+                      "candidates, the first compared_cycles_per_run cycles of it after the settling)"},
+              {"compared_cycles_per_run",
+               "the candidates (none too) were fitted and scored on this many training cycles of each run after "
+               "its settling (the whole training part of a shorter run), at most DiagnoseOptions::compared_cycles "
+               "in all; the named effect was then refitted on every training cycle. 0: every training cycle"},
               {"aic", "n ln(SSR/n) + 2k"},
               {"rms_heldout", "normalised RMS residual on the last part of each run, unseen by the fit"},
               {"confidence", "BIC weight exp(-BIC/2) / sum over the candidates"},

@@ -102,6 +102,13 @@ namespace rectify::diagnosis
     /// error beyond the library (the verdict says so).
     double              beyond_library_noise_units = 2.0;
     int                 refine_passes      = 3;  ///< at most, after naming (see diagnose.cpp)
+    /// The candidates (none too) are fitted and compared on at most this
+    /// many training cycles in all, after each run's settling, the same
+    /// number from each run that has them (screening_cycles_per_run); the
+    /// named effect is then refitted on every training cycle. 0: every
+    /// training cycle. A single record of the study's length (16 cycles,
+    /// 12 of them training) is compared whole.
+    double              compared_cycles    = 32;
     std::vector<std::string> effects;              ///< candidates; empty: the whole library
     unsigned            threads = 0;               ///< 0: all cores
     int                 rounds  = 1;               ///< 2: look for a second effect
@@ -299,8 +306,19 @@ namespace rectify::diagnosis
     /// baseline parameter's standard error (samples counted as independent,
     /// BaselineParameter::sd_unit) is when counted per independent value.
     double                    baseline_sd_factor = 1;
+    /// The candidates' fits and scores saw the first this many training
+    /// cycles of each run after its settling (screening_cycles_per_run);
+    /// 0: every training cycle.
+    double                    compared_cycles_per_run = 0;
     double                    wall_time_s = 0;
   };
+
+  /// Training cycles per run (after each run's settling, n_skip) that the
+  /// candidates are compared on, so that at most `cap` are compared in
+  /// all: the same number from every run that has that many, the whole
+  /// training part of the shorter ones, at least 3. 0 (every training
+  /// cycle) where the runs hold no more than `cap`, or `cap` is 0.
+  double screening_cycles_per_run(const std::vector<RunCase> &runs, double cap);
 
   /// An [uncertain] parameter <-> its position in [0, 1] (log over its
   /// bounds); the value always lies within its bounds, or is 0 at

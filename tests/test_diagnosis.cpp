@@ -710,3 +710,72 @@ TEST(Diagnosis, SoftSealIsRecoveredAfterRescalingTheResidualWithTheFittedModel)
   for (const auto &[signal, value] : s["residual_after"].items())
     EXPECT_LT(value.get<double>(), 2.0) << signal;
 }
+
+#include "diagnosis/diagnose.h"
+
+// The candidates are compared on at most DiagnoseOptions::compared_cycles
+// training cycles in all: the same number from every run that has them,
+// the whole training part of a shorter run (the level h with
+// sum min(have, h) = cap), and every cycle where the runs hold no more.
+TEST(Diagnosis, ComparedCyclesAreSharedOutOverTheRuns)
+{
+  const auto run_case = [](double f, double cycles, double skip_cycles) {
+    auto rc = make_run_case(MeasuredRun::parse(record(f, cycles), "run.csv"), system::Scenario::no_flow, f, 0.75);
+    rc.n_skip = static_cast<std::size_t>(std::lround(skip_cycles * 20000 / f));
+    return rc;
+  };
+  // four runs of 20 cycles, 15 of them training, one with a settling cycle
+  std::vector<RunCase> runs{run_case(50, 20, 1), run_case(75, 20, 0), run_case(100, 20, 0), run_case(150, 20, 0)};
+  EXPECT_NEAR(screening_cycles_per_run(runs, 32), 8.0, 1e-9);
+  EXPECT_EQ(screening_cycles_per_run(runs, 0), 0.0);   // 0: every cycle
+  EXPECT_EQ(screening_cycles_per_run(runs, 100), 0.0); // 59 cycles held: every one
+  EXPECT_NEAR(screening_cycles_per_run(runs, 4), 3.0, 1e-9); // at least 3 from each
+  // a short run keeps its whole training part: 3 + 15 + 15 training cycles
+  // (14 after a settling cycle), cap 24 -> 3 + 10.5 + 10.5
+  std::vector<RunCase> mixed{run_case(100, 4, 0), run_case(100, 20, 0), run_case(50, 20, 1)};
+  EXPECT_NEAR(screening_cycles_per_run(mixed, 24), 10.5, 1e-6);
+  // one record of the study's length (12 training cycles) is compared whole
+  std::vector<RunCase> one{run_case(100, 16, 0)};
+  EXPECT_EQ(screening_cycles_per_run(one, 32), 0.0);
+}
+
+// Two runs of a hidden leak (the model's own data: this checks the
+// comparison's window, not an identification), the candidates compared on
+// 4 of each run's 9 training cycles: the leak is still named, and the
+// refits on every training cycle bring its value and the residual to what
+// the whole record gives (within 10 % and the noise).
+TEST(Diagnosis, CandidatesComparedOnFewerCyclesThenTheNamedEffectRefittedOnAll)
+{
+  const auto dir = scratch("diagnose_compared_cycles");
+  std::string data;
+  for (const char *f : {"100", "150"})
+    {
+      const auto r = rectify_cli(std::string("synth --effect valve_leakage --param leak_resistance_Pa_s_per_m3=3e11 "
+                                             "--noise 0.01 --seed 11 --cycles 12 --frequency ") + f + " --out " +
+                                 (dir / f).string());
+      ASSERT_EQ(r.exit_code, 0) << r.output;
+      data += " " + (dir / f / "data.csv").string();
+    }
+  const auto r = rectify_cli("diagnose --data" + data + " --effects valve_leakage outlet_compliance "
+                             "--reed-second-mode case --compared-cycles 8 --out " + (dir / "d").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("candidates fitted and compared on the first 4 training cycles of each run"),
+            std::string::npos) << r.output;
+  const auto s = nlohmann::json::parse(std::ifstream(dir / "d" / "summary.json"));
+  EXPECT_EQ(s["effect"], "valve_leakage") << s["decision"];
+  EXPECT_NEAR(s["compared_cycles_per_run"].get<double>(), 4.0, 1e-9);
+  EXPECT_NEAR(s["parameters"]["leak_resistance_Pa_s_per_m3"].get<double>(), 3e11, 0.1 * 3e11);
+  EXPECT_LT(s["residual_after"]["overall"].get<double>(), 1.2);
+  // every candidate scored on 4 + 4 cycles of synth's four signals at 200
+  // samples per cycle, not on the 9 + 9 of the training part
+  for (const auto &c : s["candidates"])
+    EXPECT_NEAR(c["compared_samples"].get<double>(), 4 * 2 * (4 * 200), 4 * 2 * 1) << c;
+  std::ifstream report(dir / "d" / "report.md");
+  const std::string md((std::istreambuf_iterator<char>(report)), std::istreambuf_iterator<char>());
+  EXPECT_NE(md.find("refitted on every training cycle"), std::string::npos);
+  // a negative count is refused
+  const auto bad = rectify_cli("diagnose --data" + data + " --compared-cycles -1 --out " + (dir / "bad").string());
+  EXPECT_EQ(bad.exit_code, 2) << bad.output;
+  EXPECT_NE(bad.output.find("--compared-cycles"), std::string::npos) << bad.output;
+  EXPECT_FALSE(std::filesystem::exists(dir / "bad"));
+}
