@@ -1141,8 +1141,7 @@ namespace rectify::diagnosis
     double              total = 0;
     for (const auto &rc : runs)
       {
-        const auto  &t  = rc.run.time_s;
-        const double dt = (t.back() - t.front()) / static_cast<double>(t.size() - 1);
+        const double dt = rc.run.duration_s() / static_cast<double>(rc.run.time_s.size() - 1);
         const double n  = static_cast<double>(rc.n_train > rc.n_skip ? rc.n_train - rc.n_skip : 0);
         have.push_back(n * dt * rc.setup.frequency_Hz);
         total += have.back();

@@ -134,6 +134,7 @@ TEST(MeasuredRun, BadDataNamesFileRowAndColumn)
 #include "cli_helpers.h"
 #include "model_helpers.h"
 #include "common/case_edit.h"
+#include "diagnosis/diagnose.h"
 #include "diagnosis/effect.h"
 #include "diagnosis/observation.h"
 #include "diagnosis/residuals.h"
@@ -710,8 +711,6 @@ TEST(Diagnosis, SoftSealIsRecoveredAfterRescalingTheResidualWithTheFittedModel)
   for (const auto &[signal, value] : s["residual_after"].items())
     EXPECT_LT(value.get<double>(), 2.0) << signal;
 }
-
-#include "diagnosis/diagnose.h"
 
 // The candidates are compared on at most DiagnoseOptions::compared_cycles
 // training cycles in all: the same number from every run that has them,
