@@ -179,7 +179,10 @@ namespace rectify::diagnosis
           return rc.n_train;
         const auto  &t  = rc.run.time_s;
         const double dt = (t.back() - t.front()) / static_cast<double>(t.size() - 1);
-        const auto   n  = static_cast<std::size_t>(horizon_cycles / (rc.setup.frequency_Hz * dt)) + 1;
+        // whole cycles of whole samples: rounded, not truncated, since the
+        // sample step read off the time column is the record's to rounding
+        // (it had put one sample more or less into a window at random)
+        const auto   n  = static_cast<std::size_t>(std::lround(horizon_cycles / (rc.setup.frequency_Hz * dt)));
         return std::min(rc.n_train, rc.n_skip + n);
       }
 
