@@ -179,10 +179,13 @@ namespace rectify::diagnosis
           return rc.n_train;
         const auto  &t  = rc.run.time_s;
         const double dt = (t.back() - t.front()) / static_cast<double>(t.size() - 1);
-        // whole cycles of whole samples: rounded, not truncated, since the
-        // sample step read off the time column is the record's to rounding
-        // (it had put one sample more or less into a window at random)
-        const auto   n  = static_cast<std::size_t>(std::lround(horizon_cycles / (rc.setup.frequency_Hz * dt)));
+        // the cycles' samples and one more, as the quotient's rounding falls
+        // (dt is read off the time column): a window of N cycles of m
+        // samples holds N m or N m + 1. Rounding it to N m exactly was tried
+        // (docs/diagnosis.md, "Long records screened"): the ringing search's
+        // 3- and 6-cycle windows lost their sample, and the short hose's
+        // line fit (tests/foreign_bench.sh line-short) fell into another basin
+        const auto   n  = static_cast<std::size_t>(horizon_cycles / (rc.setup.frequency_Hz * dt)) + 1;
         return std::min(rc.n_train, rc.n_skip + n);
       }
 
