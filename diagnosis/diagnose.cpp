@@ -2046,6 +2046,21 @@ namespace rectify::diagnosis
 
   } // namespace
 
+  std::vector<AbsorbedEffect> absorbed_by_baseline(const std::vector<std::shared_ptr<const Effect>> &library,
+                                                   const system::SystemParameters &case_parameters,
+                                                   const system::SystemParameters &fitted, double factor)
+  {
+    std::vector<AbsorbedEffect> out;
+    for (const auto &e : library)
+      if (const auto *c = e->combination())
+        {
+          const double at_case = c->value(case_parameters), at_fit = c->value(fitted);
+          if (at_case > 0 && at_fit > factor * at_case)
+            out.push_back({e->name(), c->name, c->meaning, at_case, at_fit});
+        }
+    return out;
+  }
+
   DiagnosisResult diagnose(const system::SystemParameters &base_in, const system::ValveMaps &map,
                            std::vector<RunCase> runs, const DiagnoseOptions &options)
   {
@@ -2738,6 +2753,25 @@ namespace rectify::diagnosis
                         after, floor_units, where.c_str());
         }
       result.verdict_sentence = buf;
+      // Nothing named, but the calibrated baseline moved a quantity a
+      // candidate shares with it (the high side's compliance: a longer
+      // oil column or a soft seal) beyond what the case holds: say that
+      // the record cannot tell the two apart (a seal of a few times the
+      // oil's compliance fits as a longer column inside its declared range)
+      if (named_effect == "none")
+        {
+          result.absorbed_by_baseline =
+            absorbed_by_baseline(library, base_in, result.final_parameters, options.absorbed_factor);
+          for (const auto &a : result.absorbed_by_baseline)
+            {
+              std::snprintf(buf, sizeof buf,
+                            "; the calibrated baseline holds %s at %.3g, %.2g x the case's %.3g (%s): as much as "
+                            "%s adding %.3g to the case's would, and this record cannot tell the two apart",
+                            a.quantity.c_str(), a.fitted, a.fitted / a.case_value, a.case_value, a.meaning.c_str(),
+                            a.effect.c_str(), a.fitted - a.case_value);
+              result.verdict_sentence += buf;
+            }
+        }
     }
     result.swing_before     = pooled_norms(runs, result.before, true);
     result.swing_after      = pooled_norms(runs, result.after, true);
@@ -2890,6 +2924,11 @@ namespace rectify::diagnosis
         if (&rr == &first)
           parameters = p;
       }
+    json absorbed = json::array();
+    for (const auto &a : r.absorbed_by_baseline)
+      absorbed.push_back({{"effect", a.effect}, {"quantity", a.quantity}, {"meaning", a.meaning},
+                          {"case_value", a.case_value}, {"fitted", a.fitted},
+                          {"as_the_effect", a.fitted - a.case_value}});
     json localisation = json::array();
     for (std::size_t i = 0; i < runs.size(); ++i)
       localisation.push_back({{"run", runs[i].run.source},
@@ -2929,6 +2968,7 @@ namespace rectify::diagnosis
             {"residual_shrink", shrink},
             {"verdict", r.verdict},
             {"verdict_sentence", r.verdict_sentence},
+            {"absorbed_by_baseline", absorbed},
             {"explained_fraction", r.explained_fraction},
             {"residual_baseline_fit", r.residual_baseline},
             {"baseline_standard_error_factor", r.baseline_sd_factor},

@@ -101,6 +101,11 @@ namespace rectify::diagnosis
     /// A residual left above this many noise units after the fit means model
     /// error beyond the library (the verdict says so).
     double              beyond_library_noise_units = 2.0;
+    /// Where nothing is named and the calibrated baseline holds a quantity
+    /// a candidate shares with it (Effect::Combination) at more than this
+    /// many times the case's, the verdict says the candidate would look
+    /// the same (DiagnosisResult::absorbed_by_baseline).
+    double              absorbed_factor = 2.0;
     int                 refine_passes      = 3;  ///< at most, after naming (see diagnose.cpp)
     /// The candidates (none too) are fitted and compared on at most this
     /// many training cycles in all, after each run's settling, the same
@@ -283,6 +288,17 @@ namespace rectify::diagnosis
     int                               uncertainty_runs = 0; ///< runs of the model they took
   };
 
+  /// A quantity an effect shares with the baseline (Effect::Combination:
+  /// the seal and the oil column add up to the high side's compliance)
+  /// that the calibrated baseline raised beyond what the case holds: the
+  /// effect adding `fitted - case_value` to the case's baseline would
+  /// give the same, so the record cannot tell the two apart.
+  struct AbsorbedEffect
+  {
+    std::string effect, quantity, meaning;
+    double      case_value = 0, fitted = 0;
+  };
+
   struct DiagnosisResult
   {
     std::vector<RoundResult> rounds;
@@ -310,8 +326,20 @@ namespace rectify::diagnosis
     /// cycles of each run after its settling (screening_cycles_per_run);
     /// 0: every training cycle.
     double                    compared_cycles_per_run = 0;
+    /// Where nothing is named: the quantities the calibrated baseline
+    /// shares with a candidate and moved as the candidate would (see
+    /// absorbed_by_baseline); the verdict says so.
+    std::vector<AbsorbedEffect> absorbed_by_baseline;
     double                    wall_time_s = 0;
   };
+
+  /// The candidates in `library` whose combined quantity is more than
+  /// `factor` times higher with the calibrated baseline `fitted` than with
+  /// the case's `case_parameters` (the effects add to it: a seal cannot
+  /// take compliance away). Test Diagnosis.ABaselineThatTakesUpASealIsReported.
+  std::vector<AbsorbedEffect> absorbed_by_baseline(const std::vector<std::shared_ptr<const Effect>> &library,
+                                                   const system::SystemParameters &case_parameters,
+                                                   const system::SystemParameters &fitted, double factor);
 
   /// Training cycles per run (after each run's settling, n_skip) that the
   /// candidates are compared on, so that at most `cap` are compared in

@@ -493,6 +493,45 @@ TEST(ForeignData, TheFrictionsShapeActsOnlyWithFriction)
   EXPECT_EQ(p.inert_reason("lines", "diameter_m"), "");
 }
 
+// Nothing named, but the calibrated baseline took up a seal: a no-flow
+// record tells the high side's compliance, the oil column's
+// (A_po x high-side share x wetted length / beta) plus the seal's, not the
+// split. Where the baseline fit holds it at more than twice the case's,
+// the verdict names the effect that would look the same.
+TEST(Diagnosis, ABaselineThatTakesUpASealIsReported)
+{
+  const auto case_p = system::SystemParameters::from_case(CaseFile::load(reference_case_path()));
+  const auto &c     = case_p.cylinder;
+  const double oil_per_metre = c.piston_area_m2 * c.high_side_fraction / case_p.fluid.effective_bulk_modulus_Pa();
+  auto fitted                 = case_p;
+  fitted.cylinder.wetted_length_m = 0.15; // as none's fit of the study's outlet_compliance-3 (case 0.0254)
+  const auto a = absorbed_by_baseline(effect_library(), case_p, fitted, 2.0);
+  ASSERT_EQ(a.size(), 1u);
+  EXPECT_EQ(a[0].effect, "outlet_compliance");
+  EXPECT_EQ(a[0].quantity, "high_side_compliance_m3_per_Pa");
+  EXPECT_NEAR(a[0].case_value, oil_per_metre * 0.0254, 1e-12 * a[0].case_value);
+  EXPECT_NEAR(a[0].fitted, oil_per_metre * 0.15, 1e-12 * a[0].fitted);
+  // the seal that holds as much on the case's column: 0.1246 m of oil
+  EXPECT_NEAR(a[0].fitted - a[0].case_value, oil_per_metre * (0.15 - 0.0254), 1e-12 * a[0].fitted);
+  // within the factor, or softer than the case's column (a seal adds), or
+  // no candidate with such a quantity: nothing to say
+  fitted.cylinder.wetted_length_m = 0.045;
+  EXPECT_TRUE(absorbed_by_baseline(effect_library(), case_p, fitted, 2.0).empty());
+  fitted.cylinder.wetted_length_m = 0.005;
+  EXPECT_TRUE(absorbed_by_baseline(effect_library(), case_p, fitted, 2.0).empty());
+  fitted.cylinder.wetted_length_m = 0.15;
+  std::vector<std::shared_ptr<const Effect>> leak_only;
+  for (const auto &e : effect_library())
+    if (e->name() == "valve_leakage")
+      leak_only.push_back(e);
+  ASSERT_EQ(leak_only.size(), 1u);
+  EXPECT_TRUE(absorbed_by_baseline(leak_only, case_p, fitted, 2.0).empty());
+  // the piston's area moves it too
+  fitted.cylinder.wetted_length_m = 0.0254;
+  fitted.cylinder.piston_area_m2  = 2.5 * c.piston_area_m2;
+  EXPECT_EQ(absorbed_by_baseline(effect_library(), case_p, fitted, 2.0).size(), 1u);
+}
+
 // A record cut from the middle of a run (cycle 30 of 46, at a third of a
 // cycle) is simulated from its own periodic state or its recorded one: with the start from rest
 // the model's first cycles are a start-up the record never had. The data

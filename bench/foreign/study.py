@@ -7,8 +7,11 @@ outliers, drive distortion and random starts; `rectify diagnose` names what
 it finds as a user would run it (the reference case, all candidates).
 
   /usr/bin/python3 bench/foreign/study.py --rectify build/bin/rectify --out runs/foreign-study
-      [--per-effect 3] [--none 6] [--beyond 3] [--effects E ...] [--scenario loaded] [--currents-pp 4 8]
-      [--jobs 2] [--report-only]
+      [--per-effect 3] [--none 6] [--beyond 3] [--first 0] [--effects E ...] [--scenario loaded]
+      [--currents-pp 4 8] [--jobs 2] [--report-only]
+
+--first K numbers the records from K (E-K, E-K+1, ...; each its own seed):
+a study extended by more records of each kind, beside one already run.
 
 Resumable: DIR/cases.csv gets one row per finished record (a record or a
 diagnosis already on disk is not redone). DIR/study.md: the confusion matrix
@@ -39,19 +42,20 @@ FORMS = {"entrained_air": "polytropic", "entrained_air_constant_modulus": "const
 COLUMNS = ["case", "truth", "scenario", "frequency_Hz", "start", "named", "correct", "verdict", "true_value",
            "fitted_value", "rel_error", "air_law", "named_form", "residual_baseline", "residual_after",
            "explained_fraction", "outliers_true", "outliers_found", "start_chosen", "wall_time_s",
-           "reported_sd", "determined", "combined_true", "combined_fitted", "combined_error"]
+           "reported_sd", "determined", "combined_true", "combined_fitted", "combined_error", "absorbed"]
 lock = threading.Lock()
 
 
 def plan(args):
     cases = []
+    first = args.first
     for e in args.effects:
-        for k in range(args.per_effect):
+        for k in range(first, first + args.per_effect):
             cases.append((f"{e}-{k}", e))
-    for k in range(args.none):
+    for k in range(first, first + args.none):
         cases.append((f"none-{k}", "none"))
     for e in bench.BEYOND_LIBRARY:
-        for k in range(args.beyond):
+        for k in range(first, first + args.beyond):
             cases.append((f"{e}-{k}", e))
     return cases
 
@@ -105,7 +109,9 @@ def run_case(args, name, effect):
                outliers_true=len(truth.get("outliers", [])),
                outliers_found=sum(len(l.get("outliers", [])) for l in s["localisation"]),
                start_chosen=s["localisation"][0].get("start", ""),
-               wall_time_s=s.get("total_wall_time_s", wall))
+               wall_time_s=s.get("total_wall_time_s", wall),
+               # nothing named, but the verdict says the calibrated baseline took this effect up
+               absorbed=";".join(a["effect"] for a in s.get("absorbed_by_baseline") or []))
     if effect in LIBRARY and named in right:
         key = LIBRARY[effect][1]
         v = s["parameters"].get(key)  # absent when the other leak form (another key) was named
@@ -139,8 +145,9 @@ def report(args):
           f"{len(rows)} records, written by bench/foreign/study.py; rectify diagnose as a user runs it "
           "(reference case with its [uncertain] table, all candidates).", "",
           "| hidden \\ named | " + " | ".join(named_cols) + " | correct | parameter within 20 % | median error | "
-          "reported undetermined (its sum within 20 %) | residual after <= 2 noise | verdicts |",
-          "|---|" + "---|" * (len(named_cols) + 6)]
+          "reported undetermined (its sum within 20 %) | residual after <= 2 noise | verdicts | "
+          "none named, the verdict saying the baseline took it up |",
+          "|---|" + "---|" * (len(named_cols) + 7)]
     for t in truths:
         rs = [r for r in rows if r["truth"] == t]
         counts = [sum(r["named"] == c for r in rs) for c in named_cols]
@@ -159,7 +166,8 @@ def report(args):
         md.append(f"| {t} | " + " | ".join(str(c) for c in counts) +
                   f" | {correct}/{len(rs)} | {within}/{len(errs) if errs else 0} | {med} | {und} | "
                   f"{(str(res2) + '/' + str(len(ok_res))) if t in LIBRARY else '-'} | " +
-                  ", ".join(f"{k}: {v}" for k, v in sorted(verdicts.items())) + " |")
+                  ", ".join(f"{k}: {v}" for k, v in sorted(verdicts.items())) + " | " +
+                  str(sum(t in (r.get("absorbed") or "").split(";") for r in rs if r["named"] == "none")) + " |")
     times = sorted(float(r["wall_time_s"]) for r in rows)
     if times:
         md += ["", f"Time per record (diagnose, {args.threads} threads): median {times[len(times) // 2]:.0f} s, "
@@ -176,7 +184,9 @@ def report(args):
         elif star:  # more than 20 %: a side of its profile fits as well
             err += " (+- > 20 %*)"
         md.append(f"| {r['case']} | {r['truth']} | {r['scenario']} | {float(r['frequency_Hz']):g} | "
-                  f"{r['start']} / {r['start_chosen']} | {r['named']} | {r['verdict']} | {r['true_value'][:9]} | "
+                  f"{r['start']} / {r['start_chosen']} | {r['named']}"
+                  f"{' (baseline took up ' + r['absorbed'] + ')' if r.get('absorbed') else ''} | {r['verdict']} | "
+                  f"{r['true_value'][:9]} | "
                   f"{str(r['fitted_value'])[:9]} | {err} | {float(r['residual_baseline'] or 0):.3g} -> "
                   f"{float(r['residual_after']):.3g} | {r['outliers_true']} / {r['outliers_found']} |")
     tmp = os.path.join(args.out, "study.md.tmp")
@@ -193,6 +203,7 @@ def main():
     ap.add_argument("--per-effect", type=int, default=3)
     ap.add_argument("--none", type=int, default=6)
     ap.add_argument("--beyond", type=int, default=3)
+    ap.add_argument("--first", type=int, default=0, help="number the records from this index (extend a study)")
     ap.add_argument("--effects", nargs="*", default=list(LIBRARY))
     ap.add_argument("--scenario", choices=["no-flow", "loaded"], default=None,
                     help="every record in this scenario (default: the effect's own; none: loaded in 1 of 4)")
