@@ -1220,15 +1220,17 @@ namespace rectify::diagnosis
   void choose_start(const system::SystemParameters &base, const system::ValveMaps &map,
                     std::vector<RunCase> &runs, const DiagnoseOptions &options, unsigned threads)
   {
-    const auto lead = [&](StartState s) {
-      return s == StartState::rest || s == StartState::record ? 0.0 :
-             s == StartState::steady                          ? 3.0 :
-                                                                options.lead_cycles;
+    const auto from_record = [](StartState s) { return s == StartState::record || s == StartState::record_mean; };
+    const auto lead        = [&](StartState s) {
+      return s == StartState::rest || from_record(s) ? 0.0 : s == StartState::steady ? 3.0 : options.lead_cycles;
     };
-    // in this order of preference: a later one must fit 5 % better
-    const std::vector<StartState> all{StartState::rest, StartState::record, StartState::steady,
-                                      StartState::periodic};
-    std::vector<StartState>       tried = all;
+    // in this order of preference: a later one must fit 5 % better.
+    // record-mean only where asked for: in auto it moved a bench hose's
+    // record from "beyond the library" to named, but its effect on the
+    // other records is not measured yet (docs/diagnosis.md, "A line's
+    // ringing at the record's first sample").
+    std::vector<StartState> tried{StartState::rest, StartState::record, StartState::steady,
+                                  StartState::periodic};
     if (options.start != "auto")
       tried = {start_state_from_string(options.start)};
     // each run with each start: the residual over its first two cycles (in
@@ -1273,7 +1275,7 @@ namespace rectify::diagnosis
             if (tried.size() > 1)
               rc.start_scores[to_string(tried[k])] = score[r][k];
             const bool   run_in = tried[k] == StartState::steady || tried[k] == StartState::periodic;
-            const double margin = run_in && tried[best] == StartState::record ? 0.8 : 0.95;
+            const double margin = run_in && from_record(tried[best]) ? 0.8 : 0.95;
             if (score[r][k] < margin * score[r][best])
               best = k;
           }

@@ -68,7 +68,8 @@ namespace rectify::diagnosis
     /// Where each record starts: "auto" (the one of rest, record, steady and
     /// periodic whose model fits the record's first two cycles best, with the
     /// case's baseline; earlier ones win within 5 %, the recorded state
-    /// against a run-in within 20 %), or one of them for every run
+    /// against a run-in within 20 %), or one of them, or record-mean (a
+    /// no-flow run whose outlet pressure rings), for every run
     /// (observation.h).
     std::string         start              = "auto";
     double              lead_cycles        = 10;  ///< run-in before a periodic start (steady: 3)

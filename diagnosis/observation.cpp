@@ -218,16 +218,19 @@ namespace rectify::diagnosis
           return "periodic";
         case StartState::record:
           return "record";
+        case StartState::record_mean:
+          return "record-mean";
       }
     return "rest";
   }
 
   StartState start_state_from_string(const std::string &name)
   {
-    for (auto s : {StartState::rest, StartState::steady, StartState::periodic, StartState::record})
+    for (auto s : {StartState::rest, StartState::steady, StartState::periodic, StartState::record,
+                   StartState::record_mean})
       if (to_string(s) == name)
         return s;
-    throw InputError("start state '" + name + "': expected rest, steady, periodic or record");
+    throw InputError("start state '" + name + "': expected rest, steady, periodic, record or record-mean");
   }
 
   system::Drive measured_drive(const MeasuredRun &run, double frequency_Hz, double extra_noise_sd,
@@ -239,7 +242,8 @@ namespace rectify::diagnosis
   system::Drive with_lead(system::Drive d, const MeasuredRun &run, double frequency_Hz, StartState start,
                           double lead_cycles)
   {
-    if (start == StartState::rest || start == StartState::record || !(lead_cycles > 0))
+    if (start == StartState::rest || start == StartState::record || start == StartState::record_mean ||
+        !(lead_cycles > 0))
       return d;
     const auto        &t0  = run.time_s;
     const std::size_t  n   = t0.size();
@@ -313,6 +317,20 @@ namespace rectify::diagnosis
     r.actuator_velocity_m_per_s = first("actuator_velocity_m_per_s");
     if (run.has("outlet_valve_m"))
       r.outlet_valve_noise_m = white_noise_sd(run.signal("outlet_valve_m"));
+    // the first cycle's samples (the noise averages out over them)
+    if (run.has("outlet_pressure_Pa") && t.size() > 1 && frequency_Hz > 0)
+      {
+        const double dt = t.back() / static_cast<double>(t.size() - 1);
+        const auto   m  = static_cast<std::size_t>(std::llround(1.0 / (frequency_Hz * dt)));
+        if (m >= 2 && m <= t.size())
+          {
+            const auto &p   = run.signal("outlet_pressure_Pa");
+            double      sum = 0;
+            for (std::size_t i = 0; i < m; ++i)
+              sum += p[i];
+            r.outlet_pressure_mean_Pa = sum / static_cast<double>(m);
+          }
+      }
     return r;
   }
 
@@ -343,7 +361,9 @@ namespace rectify::diagnosis
     const std::size_t   n = y.size();
     const auto given = [](double v) { return std::isfinite(v); };
     const double p_ch  = given(r.chamber_pressure_Pa) ? r.chamber_pressure_Pa - c.p_bias : 0.0;
-    const double p_out = given(r.outlet_pressure_Pa) ? r.outlet_pressure_Pa - c.p_bias : 0.0;
+    const double p_at  = r.high_side_at_mean && given(r.outlet_pressure_mean_Pa) ? r.outlet_pressure_mean_Pa :
+                                                                                  r.outlet_pressure_Pa;
+    const double p_out = given(p_at) ? p_at - c.p_bias : 0.0;
     y[state::chamber_p] = p_ch;
     y[state::high_p]    = p_out;
     if (state::line_node_p < n && c.L_line > 0)
@@ -457,11 +477,14 @@ namespace rectify::diagnosis
     for (std::size_t i = 0; i < n; ++i)
       times[i] = run.time_s[i] - run.time_s.front();
     const bool   lead    = options.start != StartState::rest && options.start != StartState::record &&
-                        options.lead_cycles > 0;
+                        options.start != StartState::record_mean && options.lead_cycles > 0;
     const double t_start = lead ? -options.lead_cycles / setup.frequency_Hz : 0.0;
     std::optional<RecordedState> recorded;
-    if (options.start == StartState::record)
-      recorded = options.recorded ? *options.recorded : recorded_state(run, setup.frequency_Hz);
+    if (options.start == StartState::record || options.start == StartState::record_mean)
+      {
+        recorded = options.recorded ? *options.recorded : recorded_state(run, setup.frequency_Hz);
+        recorded->high_side_at_mean = options.start == StartState::record_mean;
+      }
     system::Drive cleaned = options.drive && !(options.drive_noise_sd > 0) ?
                               *options.drive :
                               measured_drive(run, setup.frequency_Hz, options.drive_noise_sd, options.seed);

@@ -38,10 +38,18 @@ namespace rectify::diagnosis
     rest,     ///< the model from rest at t = 0 (a synthetic run, a pump switched on)
     steady,   ///< the static state under the drive's first value, held before the record
     periodic, ///< the periodic state: the record's first cycle repeated before it (a run-in)
-    record    ///< the state the record shows at its first sample (recorded_state), no run-in
+    record,   ///< the state the record shows at its first sample (recorded_state), no run-in
+    /// As record, but the high side (and an outlet line) at the outlet
+    /// pressure's mean over the record's first cycle: in a no-flow run the
+    /// high side is closed, its pressure holds while the outlet valve is
+    /// shut and a line's mean drop over a periodic cycle is nil, while at
+    /// one instant a line's ringing can put the outlet pressure a tenth of
+    /// a MPa off the high side's, an error in the oil stored there that no
+    /// later cycle undoes (without a leak the outlet valve only adds oil).
+    record_mean
   };
   std::string to_string(StartState s);
-  /// "rest", "steady", "periodic", "record"; InputError otherwise.
+  /// "rest", "steady", "periodic", "record", "record-mean"; InputError otherwise.
   StartState start_state_from_string(const std::string &name);
 
   /// What a record says about the state at its first sample: each measured
@@ -52,6 +60,11 @@ namespace rectify::diagnosis
   {
     double chamber_pressure_Pa       = std::numeric_limits<double>::quiet_NaN();
     double outlet_pressure_Pa        = std::numeric_limits<double>::quiet_NaN();
+    /// The outlet pressure's mean over the record's first cycle (NaN if
+    /// the record is shorter)
+    double outlet_pressure_mean_Pa   = std::numeric_limits<double>::quiet_NaN();
+    /// StartState::record_mean: the high side starts at that mean
+    bool   high_side_at_mean         = false;
     double outlet_valve_m            = std::numeric_limits<double>::quiet_NaN();
     double outlet_valve_noise_m      = 0; ///< the opening's white-noise sd (is it open?)
     double strain                    = std::numeric_limits<double>::quiet_NaN();
@@ -90,8 +103,9 @@ namespace rectify::diagnosis
 
 
   /// The model's state at a record's first sample (StartState::record):
-  /// chamber and outlet pressures (the high side, and the outlet line's node
-  /// when there is one, at the outlet pressure), the rod from the strain
+  /// chamber and outlet pressures (the high side, and the outlet line's nodes
+  /// when there is one, at the outlet pressure, or at its first cycle's
+  /// mean where r.high_side_at_mean), the rod from the strain
   /// (else from its static balance under the drive), the chamber's oil
   /// column in its static balance, the outlet reed at its measured opening
   /// (open, if it stands above its noise), the output piston where and as
