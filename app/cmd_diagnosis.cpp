@@ -570,8 +570,7 @@ namespace rectify::app
       cmd->add_option("--start", o->options.start,
                       "where each record starts: auto (the best over its first two cycles), rest, record "
                       "(the state its first samples show), record-mean (as record, the high side at the "
-                      "outlet pressure's mean over the first cycle: a no-flow run whose outlet pressure "
-                      "rings; not tried by auto), steady (static state under its first drive value) or "
+                      "outlet pressure's mean over the first cycle; auto tries it in no-flow runs), steady (static state under its first drive value) or "
                       "periodic (a run-in of its first cycle)")
         ->check(CLI::IsMember({"auto", "rest", "record", "record-mean", "steady", "periodic"}))
         ->capture_default_str();

@@ -1224,13 +1224,13 @@ namespace rectify::diagnosis
     const auto lead        = [&](StartState s) {
       return s == StartState::rest || from_record(s) ? 0.0 : s == StartState::steady ? 3.0 : options.lead_cycles;
     };
-    // in this order of preference: a later one must fit 5 % better.
-    // record-mean only where asked for: in auto it moved a bench hose's
-    // record from "beyond the library" to named, but its effect on the
-    // other records is not measured yet (docs/diagnosis.md, "A line's
-    // ringing at the record's first sample").
-    std::vector<StartState> tried{StartState::rest, StartState::record, StartState::steady,
-                                  StartState::periodic};
+    // in this order of preference: a later one must fit 5 % better. The
+    // high side at the first cycle's mean pressure only in no-flow runs,
+    // where the high side is closed (in a loaded run it follows the load
+    // through the cycle): docs/diagnosis.md, "A line's ringing at the
+    // record's first sample".
+    std::vector<StartState> tried{StartState::rest, StartState::record, StartState::record_mean,
+                                  StartState::steady, StartState::periodic};
     if (options.start != "auto")
       tried = {start_state_from_string(options.start)};
     // each run with each start: the residual over its first two cycles (in
@@ -1240,6 +1240,11 @@ namespace rectify::diagnosis
       parallel_for(runs.size() * tried.size(), threads, [&](std::size_t job) {
         const std::size_t r = job / tried.size(), k = job % tried.size();
         const RunCase    &rc = runs[r];
+        if (tried.size() > 1 && tried[k] == StartState::record_mean && rc.setup.scenario != system::Scenario::no_flow)
+          {
+            score[r][k] = 1e300; // not a candidate
+            return;
+          }
         auto              so = rc.simulation(options.relative_tolerance);
         so.start             = tried[k];
         so.lead_cycles       = lead(tried[k]);
@@ -1272,7 +1277,7 @@ namespace rectify::diagnosis
         // assumes nothing.
         for (std::size_t k = 0; k < tried.size(); ++k)
           {
-            if (tried.size() > 1)
+            if (tried.size() > 1 && !(tried[k] == StartState::record_mean && score[r][k] >= 1e300))
               rc.start_scores[to_string(tried[k])] = score[r][k];
             const bool   run_in = tried[k] == StartState::steady || tried[k] == StartState::periodic;
             const double margin = run_in && from_record(tried[best]) ? 0.8 : 0.95;

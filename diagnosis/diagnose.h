@@ -65,12 +65,11 @@ namespace rectify::diagnosis
     int                 grid_points        = 9;  ///< coarse start grid per effect parameter
     int                 max_evaluations    = 40; ///< BOBYQA's, per candidate
     double              gain_range         = 0.1; ///< nuisance force gain in 1 +- this
-    /// Where each record starts: "auto" (the one of rest, record, steady and
-    /// periodic whose model fits the record's first two cycles best, with the
-    /// case's baseline; earlier ones win within 5 %, the recorded state
-    /// against a run-in within 20 %), or one of them, or record-mean (a
-    /// no-flow run whose outlet pressure rings), for every run
-    /// (observation.h).
+    /// Where each record starts: "auto" (the one of rest, record,
+    /// record-mean (no-flow runs), steady and periodic whose model fits the
+    /// record's first two cycles best, with the case's baseline; earlier
+    /// ones win within 5 %, a recorded state against a run-in within 20 %),
+    /// or one of them for every run (observation.h).
     std::string         start              = "auto";
     double              lead_cycles        = 10;  ///< run-in before a periodic start (steady: 3)
     /// Cycles at the start of each record left out of every residual
