@@ -570,8 +570,8 @@ namespace rectify::app
       cmd->add_option("--start", o->options.start,
                       "where each record starts: auto (the best over its first two cycles), rest, record "
                       "(the state its first samples show), record-mean (as record, the high side at the "
-                      "outlet pressure's mean over the first cycle; auto tries it in no-flow runs), steady (static state under its first drive value) or "
-                      "periodic (a run-in of its first cycle)")
+                      "outlet pressure's mean over the first cycle; auto tries it in no-flow runs), steady "
+                      "(static state under its first drive value) or periodic (a run-in of its first cycle)")
         ->check(CLI::IsMember({"auto", "rest", "record", "record-mean", "steady", "periodic"}))
         ->capture_default_str();
       cmd->add_option("--lead-cycles", o->options.lead_cycles, "cycles of run-in before a periodic start")

@@ -1220,8 +1220,7 @@ namespace rectify::diagnosis
   void choose_start(const system::SystemParameters &base, const system::ValveMaps &map,
                     std::vector<RunCase> &runs, const DiagnoseOptions &options, unsigned threads)
   {
-    const auto from_record = [](StartState s) { return s == StartState::record || s == StartState::record_mean; };
-    const auto lead        = [&](StartState s) {
+    const auto lead = [&](StartState s) {
       return s == StartState::rest || from_record(s) ? 0.0 : s == StartState::steady ? 3.0 : options.lead_cycles;
     };
     // in this order of preference: a later one must fit 5 % better. The
@@ -1231,6 +1230,9 @@ namespace rectify::diagnosis
     // record's first sample".
     std::vector<StartState> tried{StartState::rest, StartState::record, StartState::record_mean,
                                   StartState::steady, StartState::periodic};
+    if (std::any_of(runs.begin(), runs.end(),
+                    [](const RunCase &rc) { return rc.setup.scenario != system::Scenario::no_flow; }))
+      tried.erase(std::find(tried.begin(), tried.end(), StartState::record_mean));
     if (options.start != "auto")
       tried = {start_state_from_string(options.start)};
     // each run with each start: the residual over its first two cycles (in
@@ -1240,11 +1242,6 @@ namespace rectify::diagnosis
       parallel_for(runs.size() * tried.size(), threads, [&](std::size_t job) {
         const std::size_t r = job / tried.size(), k = job % tried.size();
         const RunCase    &rc = runs[r];
-        if (tried.size() > 1 && tried[k] == StartState::record_mean && rc.setup.scenario != system::Scenario::no_flow)
-          {
-            score[r][k] = 1e300; // not a candidate
-            return;
-          }
         auto              so = rc.simulation(options.relative_tolerance);
         so.start             = tried[k];
         so.lead_cycles       = lead(tried[k]);
@@ -1277,7 +1274,7 @@ namespace rectify::diagnosis
         // assumes nothing.
         for (std::size_t k = 0; k < tried.size(); ++k)
           {
-            if (tried.size() > 1 && !(tried[k] == StartState::record_mean && score[r][k] >= 1e300))
+            if (tried.size() > 1)
               rc.start_scores[to_string(tried[k])] = score[r][k];
             const bool   run_in = tried[k] == StartState::steady || tried[k] == StartState::periodic;
             const double margin = run_in && from_record(tried[best]) ? 0.8 : 0.95;

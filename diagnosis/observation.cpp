@@ -242,8 +242,7 @@ namespace rectify::diagnosis
   system::Drive with_lead(system::Drive d, const MeasuredRun &run, double frequency_Hz, StartState start,
                           double lead_cycles)
   {
-    if (start == StartState::rest || start == StartState::record || start == StartState::record_mean ||
-        !(lead_cycles > 0))
+    if (start == StartState::rest || from_record(start) || !(lead_cycles > 0))
       return d;
     const auto        &t0  = run.time_s;
     const std::size_t  n   = t0.size();
@@ -476,11 +475,10 @@ namespace rectify::diagnosis
     std::vector<double> times(n);
     for (std::size_t i = 0; i < n; ++i)
       times[i] = run.time_s[i] - run.time_s.front();
-    const bool   lead    = options.start != StartState::rest && options.start != StartState::record &&
-                        options.start != StartState::record_mean && options.lead_cycles > 0;
+    const bool   lead    = options.start != StartState::rest && !from_record(options.start) && options.lead_cycles > 0;
     const double t_start = lead ? -options.lead_cycles / setup.frequency_Hz : 0.0;
     std::optional<RecordedState> recorded;
-    if (options.start == StartState::record || options.start == StartState::record_mean)
+    if (from_record(options.start))
       {
         recorded = options.recorded ? *options.recorded : recorded_state(run, setup.frequency_Hz);
         recorded->high_side_at_mean = options.start == StartState::record_mean;

@@ -49,6 +49,8 @@ namespace rectify::diagnosis
     record_mean
   };
   std::string to_string(StartState s);
+  /// A start read off the record (record, record-mean): no run-in before it.
+  inline bool from_record(StartState s) { return s == StartState::record || s == StartState::record_mean; }
   /// "rest", "steady", "periodic", "record", "record-mean"; InputError otherwise.
   StartState start_state_from_string(const std::string &name);
 
