@@ -468,6 +468,11 @@ namespace rectify::app
                   md += "- refitted " + std::to_string(rr.refine_passes) +
                         " time(s) with the residual's noise scales recomputed from the fitted model (the "
                         "candidates' table below shows the first fit, on which the choice was made)\n";
+                for (const auto &m : rr.profile_moves)
+                  md += "- moved along its profile to `" + sci(m["value"].get<double>()) +
+                        "`: that side of the profile, with the baseline refitted, fitted better (training residual " +
+                        sci(m["training_residual"].get<double>()) + " noise units, evidence " +
+                        sci(m["evidence"].get<double>()) + "); refitted from there\n";
                 for (const auto &b : rr.freed)
                   md += "- `" + b.name + "` freed for the refits: " +
                         (b.effect_shape ? "the effect's own shape, held at the case's value while the model had "
@@ -562,6 +567,10 @@ namespace rectify::app
         ->capture_default_str();
       cmd->add_option("--max-evaluations", o->options.max_evaluations, "optimiser evaluations per candidate")
         ->check(CLI::Range(1, 1000000))
+        ->capture_default_str();
+      cmd->add_option("--profile-moves", o->options.max_profile_moves,
+                      "times a named effect's fit moves to a side of its profile that fits better (0: never)")
+        ->check(CLI::Range(0, 10))
         ->capture_default_str();
       cmd->add_option("--threads", o->options.threads, "candidates fitted at once (0: all cores)");
       cmd->add_option("--rtol", o->options.relative_tolerance, "CVODE relative tolerance")

@@ -1790,8 +1790,21 @@ namespace rectify::diagnosis
     ///   at the bench's 0.015 m a seal 83 % higher fits as well, 1.341
     ///   noise units against 1.343).
     /// Also the effect's combined quantity, if it declares one.
+    /// A side of a named effect's profile that fits clearly better than
+    /// the fit it was taken from (effect_uncertainty): the fit stopped in
+    /// one basin of a curved valley, and the profile's refit, started from
+    /// the Jacobian's prediction and a scan of the partner parameter,
+    /// reached a lower one.
+    struct BetterSide
+    {
+      double              effect_unit = 0; ///< the effect's parameter there, in [0, 1]
+      std::vector<double> w;               ///< every [uncertain] parameter's position there
+      double              gain_unit = 0;   ///< the force gain's position
+      double              value = 0, rms = 0, evidence = 0;
+    };
+
     void effect_uncertainty(const Evaluator &ev, const std::vector<double> &u, unsigned threads, RoundResult &rr,
-                            int &runs_of_the_model)
+                            int &runs_of_the_model, std::optional<BetterSide> *better = nullptr)
     {
       const double determined_sd   = ev.options.determined_relative_sd;
       const auto [all, ua]         = with_every_uncertain(ev, u);
@@ -1829,6 +1842,7 @@ namespace rectify::diagnosis
         double value = 0, rms = 0, evidence = 0;
         bool   moved = false, failed = false;
         int    runs  = 0;
+        std::vector<double> u; ///< the refit's point (every free uncertain one, the gain)
       };
       DiagnoseOptions short_search = ev.options;
       short_search.max_evaluations = 0; // + 10 per free parameter (fit)
@@ -1929,9 +1943,32 @@ namespace rectify::diagnosis
           return;
         s.rms      = std::sqrt(r.ssr_train / static_cast<double>(std::max<std::size_t>(r.n_train, 1)));
         s.evidence = evidence(r);
+        s.u        = r.u;
       });
       for (const auto &s : sides)
         runs_of_the_model += s.runs;
+      // the side that fits clearly better (by the naming's evidence), if any
+      if (better)
+        {
+          better->reset();
+          for (std::size_t k = 0; k < sides.size(); ++k)
+            {
+              const Side &s = sides[k];
+              if (!s.moved || s.failed || !(s.evidence < -ev.options.bic_threshold) ||
+                  s.u.size() != all.free.size() + 1 || (*better && !(s.evidence < (*better)->evidence)))
+                continue;
+              BetterSide b;
+              b.effect_unit = ev.effect->parameters()[k / 2].to_unit(s.value);
+              b.w           = ev.uncertain_units(u);
+              for (std::size_t i = 0; i < all.free.size(); ++i)
+                b.w[all.free[i]] = s.u[i];
+              b.gain_unit = s.u.back();
+              b.value     = s.value;
+              b.rms       = s.rms;
+              b.evidence  = s.evidence;
+              *better     = b;
+            }
+        }
       rr.uncertainty_runs = runs_of_the_model;
       const double rms_best = std::sqrt(ssr / static_cast<double>(std::max<std::size_t>(r0.size(), 1)));
 
@@ -2571,11 +2608,47 @@ namespace rectify::diagnosis
                 }
               try
                 {
-                  int        runs_here = 0;
-                  const auto began     = Clock::now();
-                  effect_uncertainty(named_ev, u, cores, rr, runs_here);
-                  say("%s's standard errors and profiles: %d runs, %.1f s", c.effect.c_str(), runs_here,
-                      seconds_since(began));
+                  // A profile's side that fits clearly better than the fit
+                  // (the valley curves: the fit stopped in a side basin)
+                  // becomes the fit: refitted from there and profiled
+                  // again, at most max_profile_moves times (docs/diagnosis.md,
+                  // "A profile that finds a better fit")
+                  for (int move = 0;; ++move)
+                    {
+                      int                       runs_here = 0;
+                      const auto                began     = Clock::now();
+                      std::optional<BetterSide> better;
+                      effect_uncertainty(named_ev, u, cores, rr, runs_here,
+                                         move < options.max_profile_moves ? &better : nullptr);
+                      say("%s's standard errors and profiles: %d runs, %.1f s", c.effect.c_str(), runs_here,
+                          seconds_since(began));
+                      if (!better || named_ev.n_effect() != 1)
+                        break;
+                      const std::size_t ne = named_ev.n_effect();
+                      say("%s: its profile fits better at %.4g (training residual %.4g noise units, evidence "
+                          "%.1f): refitted from there",
+                          c.effect.c_str(), better->value, better->rms, better->evidence);
+                      rr.profile_moves.push_back({{"value", better->value},
+                                                  {"training_residual", better->rms},
+                                                  {"evidence", better->evidence}});
+                      u[0] = better->effect_unit;
+                      for (std::size_t j = 0; j < named_ev.held.size(); ++j)
+                        named_ev.held[j] = better->w[j];
+                      for (std::size_t i = 0; i < named_ev.free.size(); ++i)
+                        u[ne + i] = better->w[named_ev.free[i]];
+                      u.back() = better->gain_unit;
+                      refine({}, "from its profile, ");
+                    }
+                  if (!rr.profile_moves.empty())
+                    {
+                      char words[256];
+                      std::snprintf(words, sizeof words,
+                                    "the fit moved along its profile %zu time(s) to a side that fitted better "
+                                    "(the last at %.4g, evidence %.1f) and was refitted there; ",
+                                    rr.profile_moves.size(), rr.profile_moves.back()["value"].get<double>(),
+                                    rr.profile_moves.back()["evidence"].get<double>());
+                      rr.uncertainty_sentence = words + rr.uncertainty_sentence;
+                    }
                 }
               catch (const std::exception &e)
                 {
@@ -2912,6 +2985,7 @@ namespace rectify::diagnosis
                           {"combined", combined},
                           {"uncertainty_sentence", rr.uncertainty_sentence},
                           {"uncertainty_runs_of_the_model", rr.uncertainty_runs},
+                          {"moved_along_its_profile", rr.profile_moves},
                           {"force_gain", rr.force_gain},
                           {"baseline", rr.baseline},
                           {"baseline_fit", check},

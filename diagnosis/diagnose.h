@@ -107,6 +107,10 @@ namespace rectify::diagnosis
     /// the same (DiagnosisResult::absorbed_by_baseline).
     double              absorbed_factor = 2.0;
     int                 refine_passes      = 3;  ///< at most, after naming (see diagnose.cpp)
+    /// A named effect's fit moves to a side of its profile that fits
+    /// better by more than bic_threshold, refitted and profiled again, at
+    /// most this many times (0: never; the profile only reports it).
+    int                 max_profile_moves  = 2;
     /// The candidates (none too) are fitted and compared on at most this
     /// many training cycles in all, after each run's settling, the same
     /// number from each run that has them (screening_cycles_per_run); the
@@ -286,6 +290,9 @@ namespace rectify::diagnosis
     std::optional<CombinedEstimate>   combined;     ///< when the effect declares a combination
     std::string                       uncertainty_sentence; ///< both in words
     int                               uncertainty_runs = 0; ///< runs of the model they took
+    /// Where the fit moved to a better side of its profile: each move's
+    /// value, training residual (noise units) and evidence (negative: better)
+    nlohmann::json                    profile_moves = nlohmann::json::array();
   };
 
   /// A quantity an effect shares with the baseline (Effect::Combination:

@@ -397,11 +397,11 @@ namespace rectify::diagnosis
           y[state::actuator_v] = r.actuator_velocity_m_per_s;
       }
     // the oil is conserved since rest: what the chamber (less the rod's
-    // stroke), the high side and the line hold came from the accumulator
-    // and the low side (the cylinder's stroke moves oil between its sides)
-    double held = model.stored_volume(0, p_ch) - c.A_pi * x_p + model.stored_volume(1, p_out);
-    if (c.L_line > 0)
-      held += model.stored_volume(3, p_out);
+    // stroke), the high side and the line (its node at the valve and every
+    // section's node) hold came from the accumulator and the low side (the
+    // cylinder's stroke moves oil between its sides)
+    const double held = model.stored_volume(0, p_ch) - c.A_pi * x_p + model.stored_volume(1, p_out) +
+                        model.line_stored_volume(y);
     const double p_acc = -held / (c.C_acc + c.C_l);
     y[state::accumulator_p] = p_acc;
     y[state::low_p]         = p_acc;

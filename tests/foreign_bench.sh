@@ -57,10 +57,18 @@
 # noise units left, every candidate scored on those 12 cycles alone (and
 # the one sample more that the window may hold as dt rounds), and the
 # named leak refitted on all 29 (its value and residual the whole record's).
-#   tests/foreign_bench.sh RECTIFY SOURCE_DIR SCRATCH_DIR [laminar|turbulent|line|line-short|mid-start|passage|near-miss|coil-mid|friction|long]
+# Form `line-moved`: the study's line_inertance-4 (a 0.26 m hose, L 1.39e7,
+# no-flow at 150 Hz from mid-operation), whose named fit stopped in a side
+# basin of the line's valley (L +63 %, 4.0 noise units left) while its
+# profile's lower side fitted far better: the fit moves there (at least one
+# move, each with evidence below -10) and the line is named and explains the
+# record, at most 2 noise units left. Its L is printed, not checked: it lands
+# +34 % off, in the valley's next basin (docs/diagnosis.md, "A profile that
+# finds a better fit").
+#   tests/foreign_bench.sh RECTIFY SOURCE_DIR SCRATCH_DIR [laminar|turbulent|line|line-short|line-moved|mid-start|passage|near-miss|coil-mid|friction|long]
 set -euo pipefail
 rectify=$1 src=$2 out=$3 form=${4:-laminar}
-max_residual=1e9 min_explained=0.8
+max_residual=1e9 min_explained=0.8 parameter_tolerance=0.2
 # where the effect leaves a gap the other candidates cannot follow, some of
 # them are not restarted (diagnose.cpp, fit()); in the short hose's record
 # (line_inertance-2) their grid starts lie far above none's fit, and the
@@ -76,6 +84,8 @@ case "$form" in
     record_args=(--value 6e-8 --seed 4242 --start mid --cycles 12 "${at_100Hz[@]}") ;;
   line) effect=line_inertance key=outlet_inertance_Pa_s2_per_m3
     max_residual=2 record_args=(--seed 14152 --cycles 16) ;; # the study's line_inertance-0, as study.py makes it
+  line-moved) effect=line_inertance key=outlet_inertance_Pa_s2_per_m3 max_residual=2 parameter_tolerance=0
+    record_args=(--seed 14216 --cycles 16) ;; # the study's line_inertance-4
   line-short) effect=line_inertance key=outlet_inertance_Pa_s2_per_m3 min_explained=0.5 expect_cut=0
     record_args=(--seed 14184 --cycles 16) ;; # the study's line_inertance-2
   mid-start) effect=valve_leakage_turbulent key=leak_area_m2 max_residual=2
@@ -103,12 +113,13 @@ if [ "$form" = passage ] || [ "$form" = near-miss ]; then  # the reference case 
 fi
 "$rectify" diagnose --data "$out/record/data.csv" "${diagnose_args[@]}" --out "$out/d" > "$out/diagnose.log" 2>&1 ||
   { cat "$out/diagnose.log"; exit 1; }
-"$py" - "$out" "$effect" "$key" "$max_residual" "$min_explained" "$form" "$src" "$expect_cut" <<'PY'
+"$py" - "$out" "$effect" "$key" "$max_residual" "$min_explained" "$form" "$src" "$expect_cut" "$parameter_tolerance" <<'PY'
 import json, math, re, sys
 out, effect, key = sys.argv[1:4]
 max_residual, min_explained = float(sys.argv[4]), float(sys.argv[5])
 form, src = sys.argv[6:8]
 expect_cut = sys.argv[8] == "1"
+tolerance = float(sys.argv[9])  # 0: the parameter is printed, not checked
 s = json.load(open(f"{out}/d/summary.json"))
 t = json.load(open(f"{out}/record/truth.json"))
 v = s["parameters"].get(key)
@@ -117,7 +128,15 @@ print("start", s["localisation"][0]["start"], "(bench:", t["start"] + ")")
 for c in s.get("candidates", []):
     if isinstance(c, dict) and c.get("effect", "").startswith(effect[:12]):
         print("candidate", c.get("effect"), "BIC", c.get("bic"), c.get("parameters"))
-ok = s["effect"] == effect and v is not None and abs(v / t["value"] - 1) < 0.2
+print("parameter error %+.1f %%" % (100 * (v / t["value"] - 1)) if v is not None else "no parameter")
+ok = s["effect"] == effect and v is not None and (tolerance <= 0 or abs(v / t["value"] - 1) < tolerance)
+# a named fit moves along its profile where a side fits better by the
+# naming's evidence (diagnose.cpp, BetterSide): in the form line-moved
+named = next((r for r in s["rounds"] if r["effect"] == s["effect"]), None) if s["effect"] != "none" else None
+moves = named["moved_along_its_profile"] if named else []
+print("moved along its profile:", json.dumps(moves))
+if form == "line-moved":
+    ok = ok and len(moves) >= 1 and all(m["evidence"] < -10 for m in moves) and s["verdict"] == "explained"
 ok = ok and s["verdict"] in ("explained", "partly explained") and s["explained_fraction"] > min_explained
 if s["residual_after"]["overall"] > 2:  # the verdict says what is left
     ok = ok and s["verdict"] == "partly explained"
@@ -175,7 +194,7 @@ for e in entries:
         continue
     ok = ok and (e == "no peak in the residual's spectrum where it can ring" or e.endswith("Hz: out of its range"))
 print("line ringing: %d frequencies, %d starts, %d pair grids not run" % (len(entries), starts, skipped))
-if form in ("line", "line-short"):
+if form in ("line", "line-short", "line-moved"):
     ok = ok and starts >= 1
 print("residual after", s["residual_after"]["overall"], "noise units (at most", max_residual, ")")
 ok = ok and s["residual_after"]["overall"] <= max_residual
