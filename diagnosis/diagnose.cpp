@@ -1769,6 +1769,19 @@ namespace rectify::diagnosis
         }
     }
 
+    /// A side of a named effect's profile that fits clearly better than
+    /// the fit it was taken from (effect_uncertainty): the fit stopped in
+    /// one basin of a curved valley, and the profile's refit, started from
+    /// the Jacobian's prediction and a scan of the partner parameter,
+    /// reached a lower one.
+    struct BetterSide
+    {
+      double              effect_unit = 0; ///< the effect's parameter there, in [0, 1]
+      std::vector<double> w;               ///< every [uncertain] parameter's position there
+      double              gain_unit = 0;   ///< the force gain's position
+      double              value = 0, rms = 0, evidence = 0;
+    };
+
     /// How well the record determines the named effect's parameters at its
     /// final fit (ev, u), two ways:
     /// - locally: the fit's covariance with every [uncertain] parameter and
@@ -1789,20 +1802,9 @@ namespace rectify::diagnosis
     ///   outlet_compliance-1: 1.7 % locally, yet with the oil column held
     ///   at the bench's 0.015 m a seal 83 % higher fits as well, 1.341
     ///   noise units against 1.343).
-    /// Also the effect's combined quantity, if it declares one.
-    /// A side of a named effect's profile that fits clearly better than
-    /// the fit it was taken from (effect_uncertainty): the fit stopped in
-    /// one basin of a curved valley, and the profile's refit, started from
-    /// the Jacobian's prediction and a scan of the partner parameter,
-    /// reached a lower one.
-    struct BetterSide
-    {
-      double              effect_unit = 0; ///< the effect's parameter there, in [0, 1]
-      std::vector<double> w;               ///< every [uncertain] parameter's position there
-      double              gain_unit = 0;   ///< the force gain's position
-      double              value = 0, rms = 0, evidence = 0;
-    };
-
+    /// Also the effect's combined quantity, if it declares one. With
+    /// `better`: the side that fits better than the fit by more than the
+    /// naming's evidence, if any (a fit stopped in a side basin).
     void effect_uncertainty(const Evaluator &ev, const std::vector<double> &u, unsigned threads, RoundResult &rr,
                             int &runs_of_the_model, std::optional<BetterSide> *better = nullptr)
     {
