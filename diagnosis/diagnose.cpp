@@ -1776,7 +1776,8 @@ namespace rectify::diagnosis
     /// reached a lower one.
     struct BetterSide
     {
-      double              effect_unit = 0; ///< the effect's parameter there, in [0, 1]
+      std::size_t         effect_index = 0; ///< which of the effect's parameters was moved
+      double              effect_unit = 0; ///< its position there, in [0, 1]
       std::vector<double> w;               ///< every [uncertain] parameter's position there
       double              gain_unit = 0;   ///< the force gain's position
       double              value = 0, rms = 0, evidence = 0;
@@ -1960,7 +1961,8 @@ namespace rectify::diagnosis
                   s.u.size() != all.free.size() + 1 || (*better && !(s.evidence < (*better)->evidence)))
                 continue;
               BetterSide b;
-              b.effect_unit = ev.effect->parameters()[k / 2].to_unit(s.value);
+              b.effect_index = k / 2;
+              b.effect_unit  = ev.effect->parameters()[k / 2].to_unit(s.value);
               b.w           = ev.uncertain_units(u);
               for (std::size_t i = 0; i < all.free.size(); ++i)
                 b.w[all.free[i]] = s.u[i];
@@ -2624,22 +2626,27 @@ namespace rectify::diagnosis
                                          move < options.max_profile_moves ? &better : nullptr);
                       say("%s's standard errors and profiles: %d runs, %.1f s", c.effect.c_str(), runs_here,
                           seconds_since(began));
-                      if (!better || named_ev.n_effect() != 1)
+                      if (!better)
                         break;
-                      const std::size_t ne = named_ev.n_effect();
                       say("%s: its profile fits better at %.4g (training residual %.4g noise units, evidence "
                           "%.1f): refitted from there",
                           c.effect.c_str(), better->value, better->rms, better->evidence);
+                      const auto u_was = u;
+                      const auto held_was = named_ev.held;
+                      u[better->effect_index] = better->effect_unit;
+                      named_ev.held           = better->w;
+                      for (std::size_t i = 0; i < named_ev.free.size(); ++i)
+                        u[named_ev.n_effect() + i] = better->w[named_ev.free[i]];
+                      u.back() = better->gain_unit;
+                      if (refine({}, "from its profile, ") < 0)
+                        { // no refit ran there: the fit stays where it was
+                          u             = u_was;
+                          named_ev.held = held_was;
+                          break;
+                        }
                       rr.profile_moves.push_back({{"value", better->value},
                                                   {"training_residual", better->rms},
                                                   {"evidence", better->evidence}});
-                      u[0] = better->effect_unit;
-                      for (std::size_t j = 0; j < named_ev.held.size(); ++j)
-                        named_ev.held[j] = better->w[j];
-                      for (std::size_t i = 0; i < named_ev.free.size(); ++i)
-                        u[ne + i] = better->w[named_ev.free[i]];
-                      u.back() = better->gain_unit;
-                      refine({}, "from its profile, ");
                     }
                   if (!rr.profile_moves.empty())
                     {

@@ -67,6 +67,20 @@ namespace
     return {span.begin(), span.end()};
   }
 
+  /// What a record of `model` at state y shows (RecordedState): the
+  /// pressures, the outlet valve's opening and the strain.
+  RecordedState recorded_at(const system::Model &model, const system::SystemParameters &p,
+                            const std::vector<double> &y)
+  {
+    namespace s = rectify::system::state;
+    RecordedState r;
+    r.chamber_pressure_Pa = p.fluid.bias_pressure_Pa + y[s::chamber_p];
+    r.outlet_pressure_Pa  = p.fluid.bias_pressure_Pa + model.flows(y).p_outlet;
+    r.outlet_valve_m      = model.opening(0, y);
+    r.strain              = y[s::piston_x] / p.transducer.rod_length_m;
+    return r;
+  }
+
   /// DIR/rig.toml: the reference case with each `from` text replaced by
   /// its `to` (a rig whose baseline differs from the case's), beside the
   /// case's resistance table. Fails the test if a `from` is not there.
@@ -859,11 +873,7 @@ TEST(ForeignData, TheRecordedStateIsWhatWasMeasuredAndConservesTheOil)
   const auto    y  = state_at(model, p, t1);
   ASSERT_TRUE(model.closed(0));
   const double  rod = p.transducer.rod_length_m;
-  RecordedState r;
-  r.chamber_pressure_Pa = p.fluid.bias_pressure_Pa + y[s::chamber_p];
-  r.outlet_pressure_Pa  = p.fluid.bias_pressure_Pa + model.flows(y).p_outlet;
-  r.outlet_valve_m      = model.opening(0, y);
-  r.strain              = y[s::piston_x] / rod;
+  const auto    r   = recorded_at(model, p, y);
 
   system::Model fresh(p, map, system::ValveModel::dynamic, system::Scenario::no_flow, drive);
   const auto    e = state_from_record(fresh, r, drive.value(t1), rod);
@@ -919,11 +929,7 @@ TEST(ForeignData, TheRecordedStateCountsTheOilInEveryLineSection)
   ASSERT_GT(y[s::high_p], 1e6);
   EXPECT_NEAR(oil(model, y), 0.0, 1e-3 * sections(y));
   const double rod = p.transducer.rod_length_m;
-  RecordedState r;
-  r.chamber_pressure_Pa = p.fluid.bias_pressure_Pa + y[s::chamber_p];
-  r.outlet_pressure_Pa  = p.fluid.bias_pressure_Pa + model.flows(y).p_outlet;
-  r.outlet_valve_m      = model.opening(0, y);
-  r.strain              = y[s::piston_x] / rod;
+  const auto   r   = recorded_at(model, p, y);
   system::Model fresh(p, map, system::ValveModel::dynamic, system::Scenario::no_flow, drive);
   const auto    e = state_from_record(fresh, r, drive.value(t1), rod);
   for (std::size_t k = 0; k < c.n_line_segments; ++k)
