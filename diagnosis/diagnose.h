@@ -355,6 +355,14 @@ namespace rectify::diagnosis
   /// cycle) where the runs hold no more than `cap`, or `cap` is 0.
   double screening_cycles_per_run(const std::vector<RunCase> &runs, double cap);
 
+  /// The valleys of a candidate's start grid: point i lies on grid line
+  /// line[i] (one line per baseline the effect's parameter is stepped
+  /// from; -1: not on a grid) at position at[i], with objective value[i].
+  /// A point on a line is a valley where no neighbour on its line (at[i]
+  /// +- 1) is lower; points off the grid are not.
+  std::vector<bool> grid_valleys(const std::vector<int> &line, const std::vector<int> &at,
+                                 const std::vector<double> &value);
+
   /// An [uncertain] parameter <-> its position in [0, 1] (log over its
   /// bounds); the value always lies within its bounds, or is 0 at
   /// position 0 for one the case leaves out (off_at_zero).

@@ -738,6 +738,48 @@ TEST(Diagnosis, ComparedCyclesAreSharedOutOverTheRuns)
   EXPECT_EQ(screening_cycles_per_run(one, 32), 0.0);
 }
 
+// A candidate's searches start from the two best valleys of its start
+// grid, not its two best points: two neighbours are one basin. The values
+// are piston_friction-4's objective on its two grid lines (at the
+// baseline's fit, at the case's values; 12 points of Coulomb friction
+// from 0.0147 to 68 N): the two best points overall (0.32 and 0.68 N on
+// the first line) are one valley; the second valley is 6.8 N on the
+// second line, the friction's own basin (the bench's 4.6 N).
+TEST(Diagnosis, StartGridValleysAreTheLowestOfTheirNeighboursOnTheirOwnLine)
+{
+  const std::vector<double> fit_line{28.03, 27.94, 27.71, 27.37, 26.77, 26.80,
+                                     34.16, 80.22, 599.2, 907.9, 6819, 20672};
+  const std::vector<double> case_line{2022.8, 2015.8, 1999.1, 1963.9, 1890.5, 1742.9,
+                                      1478.6, 1060.5, 317.8, 1541.5, 6488.6, 15851};
+  std::vector<int>    line, at;
+  std::vector<double> value;
+  for (int l = 0; l < 2; ++l)
+    for (int g = 0; g < 12; ++g)
+      {
+        line.push_back(l);
+        at.push_back(g);
+        value.push_back((l == 0 ? fit_line : case_line)[g]);
+      }
+  // a point off the grid (a ringing start) lower than all: never a valley
+  line.push_back(-1);
+  at.push_back(4);
+  value.push_back(1.0);
+  const auto valley = grid_valleys(line, at, value);
+  ASSERT_EQ(valley.size(), value.size());
+  std::vector<std::size_t> valleys;
+  for (std::size_t i = 0; i < valley.size(); ++i)
+    if (valley[i])
+      valleys.push_back(i);
+  // the first line: 26.77 at 0.32 N (position 4); the second: 317.8 at
+  // 6.8 N (position 8); the off-grid point is no valley, though lowest,
+  // and the neighbour across the lines (position 11 -> 12) is no neighbour
+  EXPECT_EQ(valleys, (std::vector<std::size_t>{4, 12 + 8}));
+  // a monotone line has its valley at its lower end; ties are both valleys
+  EXPECT_EQ(grid_valleys({0, 0, 0}, {0, 1, 2}, {3, 2, 1}), (std::vector<bool>{false, false, true}));
+  EXPECT_EQ(grid_valleys({0, 0, 0}, {0, 1, 2}, {1, 1, 2}), (std::vector<bool>{true, true, false}));
+  EXPECT_THROW(grid_valleys({0, 0}, {0}, {1, 2}), std::logic_error);
+}
+
 // Two runs of a hidden leak (the model's own data: this checks the
 // comparison's window, not an identification), the candidates compared on
 // 4 of each run's 9 training cycles: the leak is still named, and the

@@ -1020,7 +1020,7 @@ TEST(ForeignData, ARecordMeanStartPutsTheHighSideAtTheOutletPressuresCycleMean)
   EXPECT_NEAR(instant[s::high_p], r.outlet_pressure_Pa - p_bias, 1e-9 * p_high);
   EXPECT_NEAR(mean[s::high_p], p_high - p_bias, 1e-9 * p_high);
   // the line starts at rest at that pressure; the chamber as measured
-  for (std::size_t k = 0; k < p.lines.outlet_line_segments; ++k)
+  for (std::size_t k = 0; k < static_cast<std::size_t>(p.lines.outlet_line_segments); ++k)
     EXPECT_EQ(mean[s::line_segment_node(k)], mean[s::high_p]) << k;
   EXPECT_EQ(mean[s::chamber_p], instant[s::chamber_p]);
   // the high side holds less oil: the accumulator gave less
