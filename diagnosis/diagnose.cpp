@@ -897,7 +897,10 @@ namespace rectify::diagnosis
         }
       else
         add_start(u, 0.5 / grid_points);
-      std::vector<bool> valley;
+      std::stable_sort(grid.begin(), grid.end(), [](const Start &a, const Start &b) { return a.value < b.value; });
+      const double best_start = grid.front().value;
+      // the grid's valleys first (each the lowest of its neighbours along its
+      // line), then the other points, each group by its value
       {
         std::vector<int>    line, at;
         std::vector<double> value;
@@ -907,25 +910,13 @@ namespace rectify::diagnosis
             at.push_back(g.at);
             value.push_back(g.value);
           }
-        valley = grid_valleys(line, at, value);
-      }
-      double best_start = 1e300; // the best start's value
-      for (const auto &g : grid)
-        best_start = std::min(best_start, g.value);
-      std::vector<std::size_t> order(grid.size());
-      std::iota(order.begin(), order.end(), std::size_t{0});
-      // the grid's valleys first (each the lowest of its neighbours along its
-      // line), then the other points, each group by its value
-      std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-        if (valley[a] != valley[b])
-          return static_cast<bool>(valley[a]);
-        return grid[a].value < grid[b].value;
-      });
-      {
-        std::vector<Start> sorted;
-        for (const std::size_t i : order)
-          sorted.push_back(grid[i]);
-        grid = std::move(sorted);
+        const std::vector<bool> valley = grid_valleys(line, at, value);
+        std::vector<Start>      ordered;
+        for (const bool first : {true, false})
+          for (std::size_t i = 0; i < grid.size(); ++i)
+            if (valley[i] == first)
+              ordered.push_back(grid[i]);
+        grid = std::move(ordered);
       }
       // BOBYQA from the two best of the grid's valleys (the residual of a
       // valve that opens by a small pressure difference can have several
