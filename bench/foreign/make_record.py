@@ -52,8 +52,12 @@ def main():
     ap.add_argument("--effect", default="none", choices=["none"] + list(bench.EFFECTS))
     ap.add_argument("--value", type=float, default=None)
     ap.add_argument("--seed", type=int, required=True)
-    ap.add_argument("--scenario", default=None, choices=["no-flow", "loaded"])
-    ap.add_argument("--frequency", type=float, default=None)
+    ap.add_argument("--scenario", default=None, choices=["no-flow", "loaded"],
+                    help="default: drawn (records with no effect; loaded 1 in 4) or the effect's. Given for an "
+                         "effect-free record, it skips that draw, and every later draw of the seed (the rig) moves")
+    ap.add_argument("--frequency", type=float, default=None,
+                    help="default: drawn. Given, it skips that draw: the seed then makes another rig (baseline, "
+                         "effect, sensors) than without it; for the same rig at another amplitude use --current-pp")
     ap.add_argument("--current-pp", type=float, default=None,
                     help="drive peak-to-peak [A], bias half of it (default: 4 loaded, 20 no-flow); with the "
                          "same seed the same rig (baseline, effect, sensors) at another amplitude")
