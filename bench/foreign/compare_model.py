@@ -10,8 +10,9 @@ comparison make it with --no-sensor-effects, a tiny --noise, --start rest
 and the bench's differences taken away (--without junction, passage, seat,
 second-mode-draw). The case gets the record's drawn baseline (the lines'
 bore, the oil column, the cylinder's area, the gas volume, the force gain as
-the piezomagnetic coefficient, the second mode as its ratio to the first)
-and its hidden effect, then `rectify simulate` runs it from rest for as many
+the piezomagnetic coefficient, the second mode as its ratio to the first,
+the 1 cm outlet passage unless the record was made --without it) and its
+hidden effect, then `rectify simulate` runs it from rest for as many
 cycles as the record has. Both are phase-averaged over the second half of
 the cycles (--first-cycle); per signal the script prints the RMS difference as a share of
 the bench's swing (the whole band, and within each --harmonics), and the
@@ -81,6 +82,12 @@ def rig_case(case_text, truth, case_path):
     t = set_key(t, "accumulator", "gas_volume_m3", b["V_gas"], case_path)
     t = set_key(t, "transducer", "piezomagnetic_coefficient_m_per_A", P["q_pm"] * b["force_gain"], case_path)
     t = set_key(t, "reed", "second_mode_frequency_Hz", b["mode2_ratio"] * f1, case_path)
+    if "passage" not in truth.get("without", []):
+        # the bench's 1 cm outlet passage, as the model writes one: its
+        # inertance 4/3 rho l / A, with its resistance and oil, one section
+        area = math.pi * b["line_d"] ** 2 / 4
+        t = set_key(t, "lines", "outlet_inertance_Pa_s2_per_m3", 4.0 / 3.0 * P["rho"] * P["outlet_line_l"] / area,
+                    case_path)
     effect = truth["effect"]
     if effect != "none":
         if effect not in EFFECT_KEYS:
@@ -181,7 +188,7 @@ def main():
         for name, r in rows.items():
             d = r["rms_difference_over_swing"]
             print(f"{col:28s} {name:>8s} {r['bench_swing']:12.4g} {r['model_swing']:12.4g} {r['bench_mean']:12.6g} "
-                  f"{r['model_mean']:12.6g} {('%.1f %%' % (100 * d)) if d is not None else '-':>16s}")
+                  f"{r['model_mean']:12.6g} {('%.2f %%' % (100 * d)) if d is not None else '-':>16s}")
     out = os.path.join(a.out, "comparison.json")
     with tempfile.NamedTemporaryFile("w", dir=a.out, delete=False, suffix=".tmp") as f:
         json.dump(result, f, indent=1)
