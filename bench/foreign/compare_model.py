@@ -27,6 +27,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import tomllib
 
 import numpy as np
 
@@ -34,15 +35,16 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 import pump as bench  # noqa: E402
 
-# the hidden effect's parameter -> the case's keys (the bench's own form of it)
+# the hidden effect's parameter -> the case's (table, key): value (the bench's own form of it)
 EFFECT_KEYS = {
-    "orifice_flow": lambda v: {"orifice_discharge_coefficient": v},
-    "valve_leakage": lambda v: {"leak_resistance_Pa_s_per_m3": v},
-    "valve_leakage_turbulent": lambda v: {"leak_area_m2": v},
-    "reed_second_mode": lambda v: {"second_mode_frequency_Hz": v},
+    "orifice_flow": lambda v: {("valves", "orifice_discharge_coefficient"): v},
+    "valve_leakage": lambda v: {("valves", "leak_resistance_Pa_s_per_m3"): v},
+    "valve_leakage_turbulent": lambda v: {("valves", "leak_area_m2"): v},
+    "reed_second_mode": lambda v: {("reed", "second_mode_frequency_Hz"): v},
     # the bench's friction: F_c (1 + 0.3 exp(-(v / 2 mm/s)^2)) tanh(v / 0.5 mm/s)
-    "piston_friction": lambda v: {"coulomb_friction_N": v, "static_friction_ratio": 1.3,
-                                  "stribeck_velocity_m_per_s": 2e-3, "friction_velocity_scale_m_per_s": 0.5e-3},
+    "piston_friction": lambda v: {("load", "coulomb_friction_N"): v, ("load", "static_friction_ratio"): 1.3,
+                                  ("load", "stribeck_velocity_m_per_s"): 2e-3,
+                                  ("load", "friction_velocity_scale_m_per_s"): 0.5e-3},
 }
 # model column for each of the record's
 COLUMNS = {
@@ -92,10 +94,7 @@ def rig_case(case_text, truth, case_path):
     if effect != "none":
         if effect not in EFFECT_KEYS:
             fail(f"effect {effect}: not compared here (only none, {', '.join(sorted(EFFECT_KEYS))})")
-        for key, value in EFFECT_KEYS[effect](truth["value"]).items():
-            section = {"second_mode_frequency_Hz": "reed", "coulomb_friction_N": "load",
-                       "static_friction_ratio": "load", "stribeck_velocity_m_per_s": "load",
-                       "friction_velocity_scale_m_per_s": "load"}.get(key, "valves")
+        for (section, key), value in EFFECT_KEYS[effect](truth["value"]).items():
             t = set_key(t, section, key, value, case_path)
     return t
 
@@ -137,8 +136,12 @@ def main():
     if truth.get("drive") != "current_A":
         fail(f"{truth_path}: drive '{truth.get('drive')}': only current-driven records are compared")
 
-    os.makedirs(a.out, exist_ok=True)
+    if any(k < 1 for k in a.harmonics):
+        fail(f"--harmonics {a.harmonics}: each must be at least 1")
     case = rig_case(open(a.case).read(), truth, a.case)
+    # the model's pressures are gauge about the case's bias, the record's absolute
+    bias = tomllib.loads(case)["fluid"]["bias_pressure_Pa"]
+    os.makedirs(a.out, exist_ok=True)
     # the case's tables beside it (the resistance map is read relative to the case)
     for name in os.listdir(os.path.dirname(os.path.abspath(a.case))):
         if name.endswith(".csv"):
@@ -175,7 +178,7 @@ def main():
         yb = phase_average(data["time_s"], data[col], freq, first, cycles)
         ym = phase_average(model["time_s"], model[mcol], freq, first, cycles)
         if col.endswith("_Pa"):
-            ym = ym + bench.NOMINAL["p_bias"]  # the model's pressures are gauge about the bias
+            ym = ym + bias
         rows = {}
         for k in [0] + list(a.harmonics):
             b, m = (yb, ym) if k == 0 else (band(yb, k), band(ym, k))
