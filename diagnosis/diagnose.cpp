@@ -2379,6 +2379,7 @@ namespace rectify::diagnosis
               weight_sum += std::exp(-0.5 * (c.bic - bic_min));
           std::size_t nearest = 0;        // the candidate that failed only the gap or the feature rule,
           double      nearest_closed = 0; // closing the largest share of the gap
+          std::string nearest_rule, nearest_reason; // the rule it failed ("gap", "feature") and its sentence
 
           const auto gap = [](double r) { return gap_above_noise(r * r); };
           // Candidate i judged against a baseline fit (none's; or none's with
@@ -2386,6 +2387,7 @@ namespace rectify::diagnosis
           struct Judged
           {
             bool        named = false, near = false; ///< near: failed only the gap or feature rule
+            std::string rule;                            ///< the rule it failed where near: "gap" or "feature"
             bool        stop  = false;               ///< the BIC rule: the rest rank lower still
             double      closed = 0, before = 0, after = 0;
             std::string signal, half, reason;
@@ -2425,6 +2427,7 @@ namespace rectify::diagnosis
                               100 * options.min_gap_closed);
                 j.reason = buf;
                 j.near   = true;
+                j.rule   = "gap";
                 return j;
               }
             // ... and half of the dominant feature above the noise (the
@@ -2464,6 +2467,7 @@ namespace rectify::diagnosis
                               c.effect.c_str(), j.signal.c_str(), j.half.c_str(), j.before, j.after);
                 j.reason = buf;
                 j.near   = true;
+                j.rule   = "feature";
                 return j;
               }
             j.named = true;
@@ -2483,6 +2487,8 @@ namespace rectify::diagnosis
                     {
                       nearest        = i;
                       nearest_closed = j.closed;
+                      nearest_rule   = j.rule;
+                      nearest_reason = j.reason;
                     }
                   continue;
                 }
@@ -2739,14 +2745,16 @@ namespace rectify::diagnosis
               auto            near_made = predictions[k];
               const auto      near_left = calibrate_left_out(near_ev, near_with, near_made, cores);
               char buf[160];
-              std::snprintf(buf, sizeof buf, "%s, the nearest miss (%.0f %% of the gap closed)", fitted[k].effect.c_str(),
-                            100 * nearest_closed);
+              std::snprintf(buf, sizeof buf, "%s, the nearest miss (%.0f %% of the gap closed%s)",
+                            fitted[k].effect.c_str(), 100 * nearest_closed,
+                            nearest_rule == "feature" ? ", too little of the dominant feature" : "");
               const std::string tried = std::string("the parameters the case leaves out, tried on at none's fit and at ") +
                                         buf + ": at none's, " + said(none_left) + "; at " + fitted[k].effect +
                                         "'s, " + said(near_left);
               say("%s, %.1f s", tried.c_str(), seconds_since(began));
-              rr.near_miss = {fitted[k].effect, nearest_closed,   fitted[0].bic, fitted[0].rms_train,
-                              fitted[k].bic,    fitted[k].rms_train, none_left,     near_left, false};
+              rr.near_miss = {fitted[k].effect, nearest_closed,      nearest_rule, nearest_reason,
+                              fitted[0].bic,    fitted[0].rms_train, fitted[k].bic, fitted[k].rms_train,
+                              none_left,        near_left,           false};
               const bool none_on = at_none.on;
               const bool near_on = std::any_of(near_left.begin(), near_left.end(),
                                                [](const BaselineParameter &b) { return b.value != 0.0; });
@@ -2780,7 +2788,11 @@ namespace rectify::diagnosis
             {
               rr.near_miss.named = true;
               rr.decision += "; named after its fit and none's were made again with the parameters the case "
-                             "leaves out (it was the nearest miss without them)";
+                             "leaves out (it was the nearest miss without them: " +
+                             std::string(rr.near_miss.missed_by == "feature"
+                                           ? "it explained too little of the dominant feature"
+                                           : "it closed too little of the gap") +
+                             ")";
             }
           if (rr.effect == "none")
             {
@@ -2998,6 +3010,8 @@ namespace rectify::diagnosis
         if (!rr.near_miss.effect.empty())
           near_miss = {{"effect", rr.near_miss.effect},
                        {"gap_closed_without", rr.near_miss.closed},
+                       {"missed_by", rr.near_miss.missed_by},
+                       {"reason_without", rr.near_miss.reason},
                        {"none_without", {{"bic", rr.near_miss.none_bic}, {"rms_train", rr.near_miss.none_rms_train}}},
                        {"effect_without",
                         {{"bic", rr.near_miss.effect_bic}, {"rms_train", rr.near_miss.effect_rms_train}}},

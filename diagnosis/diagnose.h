@@ -263,6 +263,8 @@ namespace rectify::diagnosis
     {
       std::string                    effect;
       double                         closed = 0; ///< share of the gap it closed without them
+      std::string                    missed_by;  ///< the rule it failed without them: "gap" or "feature"
+      std::string                    reason;     ///< that rule's sentence
       /// none's and its fits without them (the candidates' table holds the
       /// fits with them where it was named)
       double none_bic = 0, none_rms_train = 0, effect_bic = 0, effect_rms_train = 0;

@@ -32,12 +32,14 @@
 # bench's distributed passage), and at most 2 noise units remain. Form
 # `near-miss`: the study's orifice_flow-2 (a loaded record at 100 Hz from its
 # static state, Cd 0.468 behind the reed), where without the passage the
-# orifice closes 49 % of the gap (50 % needed) and nothing is named: the
-# passage is tried on at none's fit and at the orifice's, the orifice is
-# judged again against none with it and named, Cd within 20 %, at most 2
-# noise units left, and what it
-# closed without the passage is reported (between the 20 % that earns the
-# try and the 50 % that naming needs). Form `coil-mid`: the study's
+# orifice closes 50.4 % of the gap but too little of the dominant feature
+# (the outlet valve's pressurising half; made on an AVX-512 machine before
+# the record's CPU paths were pinned it closed 49 %, 50 % needed) and
+# nothing is named: the passage is tried on at none's fit and at the
+# orifice's, the orifice is judged again against none with it and named, Cd
+# within 20 %, at most 2 noise units left, and what it closed without the
+# passage is reported (at least the 20 % that earns the try), with the rule
+# it failed. Form `coil-mid`: the study's
 # coil_dynamics-2 (a coil of 2.02 mH, its corner at the pumping frequency,
 # 150 Hz, voltage drive, no-flow, a record from mid-operation): the record
 # start takes the coil's periodic current (it had started at V(0)/R, and
@@ -223,7 +225,15 @@ if form == "passage":  # the outlet passage, tried on at the named fit and kept 
 if form == "near-miss":  # named only after the passage was tried on at none's fit and at the orifice's
     print("nearest miss", json.dumps(near))
     ok = ok and near is not None and near["effect"] == effect and near["named"]
-    ok = ok and 0.2 <= near["gap_closed_without"] < 0.5
+    # it closed at least the share that earns the try, and failed the rule
+    # it says: the gap (less than half closed) or the dominant feature (the
+    # gap at least half closed, the feature's sentence given)
+    rule, reason = near.get("missed_by"), near.get("reason_without", "")
+    print("missed by the %s rule: %s" % (rule, reason))
+    ok = ok and 0.2 <= near["gap_closed_without"]
+    ok = ok and ((rule == "gap" and near["gap_closed_without"] < 0.5 and "closes only" in reason) or
+                 (rule == "feature" and near["gap_closed_without"] >= 0.5 and "dominant feature" in reason))
+    ok = ok and ("too little of the dominant feature" if rule == "feature" else "too little of the gap") in s["decision"]
     # the share it closed without, from the fits without (the same rule)
     closed = 1 - gap(near["effect_without"]["rms_train"]) / gap(near["none_without"]["rms_train"]) if ok else -1
     print("closed without the passage %.4f (reported %.4f)" % (closed, near["gap_closed_without"] if ok else -1))

@@ -11,13 +11,14 @@ Everything not given is drawn from the seed: the baseline parameters inside
 pump.RANGES (log-uniform), the effect's parameter inside pump.EFFECTS, the
 air's law, the start, the sensors' bandwidths, the coloured noise, the
 drift, the outliers and the drive's distortion. DIR/data.csv, DIR/truth.json
-(written to temporary files and renamed).
+(written to temporary files and renamed). The same seed and options make the
+same record on every x86-64 machine with AVX2 and FMA (cpu_paths.py).
 """
 import argparse, json, math, os, sys, time
 
-import numpy as np
-
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import cpu_paths  # noqa: E402  (before NumPy: the same record on every AVX2 machine)
+import numpy as np  # noqa: E402
 import pump as bench  # noqa: E402
 
 
@@ -80,7 +81,8 @@ def main():
     a = ap.parse_args()
 
     rng = np.random.default_rng(a.seed)
-    truth = {"effect": a.effect, "seed": a.seed, "generator": "bench/foreign (independent of rectify's model)"}
+    truth = {"effect": a.effect, "seed": a.seed, "generator": "bench/foreign (independent of rectify's model)",
+             "cpu_paths": cpu_paths.PINNED or "the machine's own"}
     loaded_effects = ("piston_friction", "orifice_flow", "reed_second_mode")
     scenario = a.scenario or ("loaded" if a.effect in loaded_effects else
                               ("loaded" if a.effect == "none" and rng.uniform() < 0.25 else "no-flow"))
