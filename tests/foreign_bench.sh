@@ -59,14 +59,17 @@
 # noise units left, every candidate scored on those 12 cycles alone (and
 # the one sample more that the window may hold as dt rounds), and the
 # named leak refitted on all 29 (its value and residual the whole record's).
-# Form `line-moved`: the study's line_inertance-4 (a 0.26 m hose, L 1.39e7,
-# no-flow at 150 Hz from mid-operation), whose named fit stopped in a side
-# basin of the line's valley (L +63 %, 4.0 noise units left) while its
-# profile's lower side fitted far better: the fit moves there (at least one
-# move, each with evidence below -10) and the line is named and explains the
-# record, at most 2 noise units left. Its L is printed, not checked: it lands
-# +34 % off, in the valley's next basin (docs/diagnosis.md, "A profile that
-# finds a better fit"). Form `friction-rest`: the study's piston_friction-4
+# Form `line-moved`: the study's line_inertance-3 (a hose of L 3.31e7,
+# no-flow at 100 Hz from mid-operation), whose named fit stops at 2.83e7
+# while its profile's upper side fits far better (evidence -528): the fit
+# moves there (at least one move, each with evidence below -10) and the line
+# is named with L within 20 % (+2.2 % here) and at least half of the gap
+# closed (74 %; 2.9 noise units are left and the verdict says "partly
+# explained"; docs/diagnosis.md, "A profile that finds a better fit" and the
+# forty-first stop). The form used line_inertance-4 until the records' CPU
+# paths were pinned: made with OpenBLAS's AVX-512 kernels, its fit moved
+# from +63 % to +34 %; made on the AVX2 paths it stops at +80 % in a basin
+# whose profile fits worse on both sides, and nothing moves. Form `friction-rest`: the study's piston_friction-4
 # (loaded, 100 Hz, from rest, Coulomb 4.6 N; the friction alone against
 # none, --effects piston_friction), whose friction grid's two best points
 # (0.3 and 0.7 N at the baseline's fit) are one valley: its searches start
@@ -97,8 +100,8 @@ case "$form" in
     record_args=(--value 6e-8 --seed 4242 --start mid --cycles 12 "${at_100Hz[@]}") ;;
   line) effect=line_inertance key=outlet_inertance_Pa_s2_per_m3
     max_residual=2 record_args=(--seed 14152 --cycles 16) ;; # the study's line_inertance-0, as study.py makes it
-  line-moved) effect=line_inertance key=outlet_inertance_Pa_s2_per_m3 max_residual=2 parameter_tolerance=0
-    record_args=(--seed 14216 --cycles 16) ;; # the study's line_inertance-4
+  line-moved) effect=line_inertance key=outlet_inertance_Pa_s2_per_m3 min_explained=0.5
+    record_args=(--seed 14200 --cycles 16) ;; # the study's line_inertance-3
   line-short) effect=line_inertance key=outlet_inertance_Pa_s2_per_m3 min_explained=0.5 expect_cut=0
     record_args=(--seed 14184 --cycles 16) ;; # the study's line_inertance-2
   mid-start) effect=valve_leakage_turbulent key=leak_area_m2 max_residual=2
@@ -151,7 +154,7 @@ named = next((r for r in s["rounds"] if r["effect"] == s["effect"]), None) if s[
 moves = named["moved_along_its_profile"] if named else []
 print("moved along its profile:", json.dumps(moves))
 if form == "line-moved":
-    ok = ok and len(moves) >= 1 and all(m["evidence"] < -10 for m in moves) and s["verdict"] == "explained"
+    ok = ok and len(moves) >= 1 and all(m["evidence"] < -10 for m in moves)
 ok = ok and s["verdict"] in ("explained", "partly explained") and s["explained_fraction"] > min_explained
 if s["residual_after"]["overall"] > 2:  # the verdict says what is left
     ok = ok and s["verdict"] == "partly explained"
