@@ -58,6 +58,9 @@ if PINNED:
         warnings.filterwarnings("ignore", category=RuntimeWarning, message=".*NPY_DISABLE_CPU_FEATURES.*")
         import numpy  # noqa: E402,F401
 
-    from numpy.core._multiarray_umath import __cpu_features__  # noqa: E402
+    try:
+        from numpy.core._multiarray_umath import __cpu_features__  # noqa: E402
+    except ImportError:  # NumPy 2 moved it; Debian 12's is 1.24
+        from numpy._core._multiarray_umath import __cpu_features__  # noqa: E402
     if any(__cpu_features__.get(k) for k in NUMPY_AVX512):
         raise RuntimeError("bench/foreign/cpu_paths.py: NumPy's AVX-512 loops are still on")
