@@ -33,7 +33,7 @@
 # `near-miss`: the study's orifice_flow-2 (a loaded record at 100 Hz from its
 # static state, Cd 0.468 behind the reed), where without the passage the
 # orifice closes 50.4 % of the gap but too little of the dominant feature
-# (the outlet valve's pressurising half; made on an AVX-512 machine before
+# (the outlet valve's refill half; made on an AVX-512 machine before
 # the record's CPU paths were pinned it closed 49 %, 50 % needed) and
 # nothing is named: the passage is tried on at none's fit and at the
 # orifice's, the orifice is judged again against none with it and named, Cd
@@ -60,8 +60,8 @@
 # the one sample more that the window may hold as dt rounds), and the
 # named leak refitted on all 29 (its value and residual the whole record's).
 # Form `line-moved`: the study's line_inertance-3 (a hose of L 3.31e7,
-# no-flow at 100 Hz from mid-operation), whose named fit stops at 2.83e7
-# while its profile's upper side fits far better (evidence -528): the fit
+# no-flow at 100 Hz from mid-operation), whose named fit stops at 4.15e7
+# (+25 %) while its profile's lower side fits far better (evidence -528): the fit
 # moves there (at least one move, each with evidence below -10) and the line
 # is named with L within 20 % (+2.2 % here) and at least half of the gap
 # closed (74 %; 2.9 noise units are left and the verdict says "partly
@@ -75,12 +75,13 @@
 # (0.3 and 0.7 N at the baseline's fit) are one valley: its searches start
 # from the grid's two best valleys, one of them 6.8 N at the case's values,
 # and the friction is named (at once, or as the nearest miss once the outlet
-# passage is tried on: its first fit closes 41 % of the gap here), F_c
+# passage is tried on: its first fit closes 33 % of the gap on the pinned
+# record, 41 % on the AVX-512 one), F_c
 # within 20 %, at most 2 noise units left.
 # Made on a machine with AVX-512 its record differs from one made without
 # by 1e-5 of each signal's swing, and with the two best points the friction
 # was found from one and not the other (docs/diagnosis.md, "One start per
-# valley").
+# valley"); records are now made on pinned CPU paths (cpu_paths.py).
 #   tests/foreign_bench.sh RECTIFY SOURCE_DIR SCRATCH_DIR [laminar|turbulent|line|line-short|line-moved|mid-start|passage|near-miss|coil-mid|friction|friction-rest|long]
 set -euo pipefail
 rectify=$1 src=$2 out=$3 form=${4:-laminar}
