@@ -2377,9 +2377,8 @@ namespace rectify::diagnosis
           for (const auto &c : fitted)
             if (!c.failed)
               weight_sum += std::exp(-0.5 * (c.bic - bic_min));
-          std::size_t nearest = 0;        // the candidate that failed only the gap or the feature rule,
-          double      nearest_closed = 0; // closing the largest share of the gap
-          std::string nearest_rule, nearest_reason; // the rule it failed ("gap", "feature") and its sentence
+          std::size_t nearest = 0; // the candidate that failed only the gap or the feature rule,
+                                   // closing the largest share of the gap (its judgement: near_judged)
 
           const auto gap = [](double r) { return gap_above_noise(r * r); };
           // Candidate i judged against a baseline fit (none's; or none's with
@@ -2392,6 +2391,7 @@ namespace rectify::diagnosis
             double      closed = 0, before = 0, after = 0;
             std::string signal, half, reason;
           };
+          Judged near_judged; // the nearest miss's
           const auto rules = [&](std::size_t i, const CandidateResult &base, const std::vector<Signals> &base_made) {
             Judged       j;
             const auto  &c     = fitted[i];
@@ -2483,12 +2483,10 @@ namespace rectify::diagnosis
                 break; // the rest rank lower still
               if (!j.named)
                 {
-                  if (j.near && j.closed > nearest_closed)
+                  if (j.near && j.closed > near_judged.closed)
                     {
-                      nearest        = i;
-                      nearest_closed = j.closed;
-                      nearest_rule   = j.rule;
-                      nearest_reason = j.reason;
+                      nearest     = i;
+                      near_judged = j;
                     }
                   continue;
                 }
@@ -2732,7 +2730,7 @@ namespace rectify::diagnosis
           // candidate is judged again against none with it, by the same
           // rules. Only it: the others were further from being named.
           if (look == 0 && rr.effect == "none" && nearest > 0 && !left_off.empty() &&
-              nearest_closed >= restart_closure * options.min_gap_closed &&
+              near_judged.closed >= restart_closure * options.min_gap_closed &&
               pooled_norms(runs, predictions[0], false).at("overall") > options.beyond_library_noise_units)
             {
               const auto      began     = Clock::now();
@@ -2746,13 +2744,13 @@ namespace rectify::diagnosis
               const auto      near_left = calibrate_left_out(near_ev, near_with, near_made, cores);
               char buf[160];
               std::snprintf(buf, sizeof buf, "%s, the nearest miss (%.0f %% of the gap closed%s)",
-                            fitted[k].effect.c_str(), 100 * nearest_closed,
-                            nearest_rule == "feature" ? ", too little of the dominant feature" : "");
+                            fitted[k].effect.c_str(), 100 * near_judged.closed,
+                            near_judged.rule == "feature" ? ", too little of the dominant feature" : "");
               const std::string tried = std::string("the parameters the case leaves out, tried on at none's fit and at ") +
                                         buf + ": at none's, " + said(none_left) + "; at " + fitted[k].effect +
                                         "'s, " + said(near_left);
               say("%s, %.1f s", tried.c_str(), seconds_since(began));
-              rr.near_miss = {fitted[k].effect, nearest_closed,      nearest_rule, nearest_reason,
+              rr.near_miss = {fitted[k].effect, near_judged.closed,  near_judged.rule, near_judged.reason,
                               fitted[0].bic,    fitted[0].rms_train, fitted[k].bic, fitted[k].rms_train,
                               none_left,        near_left,           false};
               const bool none_on = at_none.on;
