@@ -2669,6 +2669,7 @@ namespace rectify::diagnosis
                   // becomes the fit: refitted from there and profiled
                   // again, at most max_profile_moves times (docs/diagnosis.md,
                   // "A profile that finds a better fit")
+                  std::string moves_words; // said before the standard errors
                   for (int move = 0;; ++move)
                     {
                       int                       runs_here = 0;
@@ -2708,7 +2709,178 @@ namespace rectify::diagnosis
                                     "(the last at %.4g, evidence %.1f) and was refitted there; ",
                                     rr.profile_moves.size(), rr.profile_moves.back()["value"].get<double>(),
                                     rr.profile_moves.back()["evidence"].get<double>());
+                      moves_words             = words;
                       rr.uncertainty_sentence = words + rr.uncertainty_sentence;
+                    }
+                  // A parameter the record does not determine, whose combined
+                  // quantity it does (a seal and the oil column: the record
+                  // tells their sum), lies anywhere along a valley, and the
+                  // fit's own split is where its search stopped. Held, not
+                  // traded (issue 17): the baseline parameter it trades with is
+                  // held at the case's value and the effect refitted, kept
+                  // where that fits as well as the split (evidence within the
+                  // naming's threshold); the effect's values over that
+                  // parameter's declared range are reported beside it
+                  // (docs/diagnosis.md, "The seal against the oil column").
+                  const auto *comb = named_ev.effect ? named_ev.effect->combination() : nullptr;
+                  if (comb && rr.combined && rr.combined->determined && rr.uncertainty.size() == 1 &&
+                      !rr.uncertainty.front().determined)
+                    {
+                      const auto &unc     = named_ev.base.uncertain;
+                      const auto  partner = rr.uncertainty.front().correlated_with;
+                      std::size_t j       = unc.size();
+                      for (std::size_t q = 0; q < unc.size(); ++q)
+                        if (unc[q].name() == partner)
+                          j = q;
+                      const auto at = std::find(named_ev.free.begin(), named_ev.free.end(), j);
+                      // only a partner that enters the combined quantity splits it
+                      // (one the effect trades with otherwise, the accumulator's gas in
+                      // a seal record of the bench, is no part of the high side's sum)
+                      const auto enters = [&] {
+                        const auto at_unit = [&](double x) {
+                          auto v = u;
+                          v[named_ev.n_effect() + static_cast<std::size_t>(at - named_ev.free.begin())] = x;
+                          return comb->value(named_ev.parameters(v));
+                        };
+                        return std::abs(at_unit(1.0) - at_unit(0.0)) > 1e-6 * std::abs(rr.combined->value);
+                      };
+                      if (j < unc.size() && at != named_ev.free.end() && enters())
+                        {
+                          const auto        k      = static_cast<std::size_t>(at - named_ev.free.begin());
+                          const std::size_t ne     = named_ev.n_effect();
+                          const double      target = rr.combined->value;
+                          const auto       &q      = unc[j];
+                          const auto       &spec   = named_ev.effect->parameters().front();
+                          const double      case_value = named_ev.base.real_value(q.table, q.key);
+                          const double      split_value = uncertain_from_unit(q, u[ne + k]);
+                          Evaluator         held_ev = named_ev;
+                          held_ev.held[j]           = uncertain_to_unit(q, case_value);
+                          held_ev.free.erase(held_ev.free.begin() + static_cast<std::ptrdiff_t>(k));
+                          held_ev.nuisance_start.erase(held_ev.nuisance_start.begin() + static_cast<std::ptrdiff_t>(k));
+                          auto uh = u;
+                          uh.erase(uh.begin() + static_cast<std::ptrdiff_t>(ne + k));
+                          // the effect's position that keeps the combined quantity at
+                          // the fit's with the partner at `w` (its position); none
+                          // where no value in the effect's range does
+                          const auto solve = [&](double w) -> std::optional<double> {
+                            Evaluator e = held_ev;
+                            e.held[j]   = w;
+                            auto       x = uh;
+                            const auto f = [&](double y) {
+                              x[0] = y;
+                              return comb->value(e.parameters(x)) - target;
+                            };
+                            double lo = 0, hi = 1, flo = f(lo);
+                            if (!(flo * f(hi) <= 0))
+                              return std::nullopt;
+                            for (int it = 0; it < 60; ++it)
+                              {
+                                const double mid = 0.5 * (lo + hi), fm = f(mid);
+                                if ((fm <= 0) == (flo <= 0))
+                                  {
+                                    lo  = mid;
+                                    flo = fm;
+                                  }
+                                else
+                                  hi = mid;
+                              }
+                            return 0.5 * (lo + hi);
+                          };
+                          const auto from = solve(held_ev.held[j]);
+                          // over the partner's range: where the effect is needed least and most
+                          // (none: the partner alone holds the sum there)
+                          auto range_lo = solve(1.0), range_hi = solve(0.0);
+                          if (range_lo && range_hi && *range_lo > *range_hi)
+                            std::swap(range_lo, range_hi);
+                          nlohmann::json h = {{"parameter", partner},
+                                              {"case_value", case_value},
+                                              {"split", {{partner, split_value}, {spec.key, rr.values.front()}}},
+                                              {"effect_over_its_range",
+                                               {range_lo ? nlohmann::json(spec.from_unit(*range_lo)) : nlohmann::json(nullptr),
+                                                range_hi ? nlohmann::json(spec.from_unit(*range_hi)) : nlohmann::json(nullptr)}},
+                                              {"range", {q.lower, q.upper}},
+                                              {"kept", false}};
+                          if (from)
+                            {
+                              const auto       began    = Clock::now();
+                              const RoundResult rr_was  = rr;
+                              const auto       u_was    = u;
+                              const Evaluator  split_ev = named_ev;
+                              const auto       current_was = current;
+                              named_ev.free             = held_ev.free; // (an Evaluator holds references)
+                              named_ev.held             = held_ev.held;
+                              named_ev.nuisance_start   = held_ev.nuisance_start;
+                              u                         = uh;
+                              u[0]                      = *from;
+                              char what[200];
+                              std::snprintf(what, sizeof what, "with %s held at the case's %.4g, ", partner.c_str(),
+                                            case_value);
+                              const bool ran = refine({}, what) >= 0;
+                              // both in the scales the refit left (the held fit's)
+                              const auto held_sum  = named_ev.training(u);
+                              const auto split_sum = split_ev.training(u_was);
+                              const double evidence =
+                                independent_values(runs, held_sum.n) *
+                                std::log(std::max(held_sum.sum, 1e-300) / std::max(split_sum.sum, 1e-300));
+                              h["evidence"] = evidence;
+                              h["held_value"] = rr.values.front();
+                              const bool keep = ran && evidence <= options.bic_threshold;
+                              say("%s with %s held at the case's %.4g: %s = %.4g (the split's %.4g, %s %.4g); "
+                                  "evidence %.1f: %s, %.1f s",
+                                  c.effect.c_str(), partner.c_str(), case_value, spec.key.c_str(),
+                                  rr.values.front(), rr_was.values.front(), partner.c_str(), split_value, evidence,
+                                  keep ? "kept" : "the split kept", seconds_since(began));
+                              if (keep)
+                                {
+                                  int runs_here = 0;
+                                  effect_uncertainty(named_ev, u, cores, rr, runs_here);
+                                  rr.uncertainty_sentence = moves_words + rr.uncertainty_sentence;
+                                }
+                              else
+                                {
+                                  rr       = rr_was;
+                                  u        = u_was;
+                                  named_ev.free           = split_ev.free;
+                                  named_ev.held           = split_ev.held;
+                                  named_ev.nuisance_start = split_ev.nuisance_start;
+                                  current  = current_was;
+                                  calibrate_noise(named_ev.parameters(u), map, runs, options.relative_tolerance, cores);
+                                }
+                              h["kept"] = keep;
+                            }
+                          const auto bound = [&](const std::optional<double> &x) {
+                            char b[40];
+                            std::snprintf(b, sizeof b, "%.3g", x ? spec.from_unit(*x) : 0.0);
+                            return x ? std::string(b) : std::string("none");
+                          };
+                          char        words[900];
+                          const bool  kept = h["kept"].get<bool>();
+                          const auto &now  = rr.uncertainty.front();
+                          std::string how;
+                          if (!from)
+                            how = "no value of the effect keeps the sum there: the split kept";
+                          else if (!kept)
+                            how = "fits worse (evidence " + std::to_string(static_cast<int>(std::lround(
+                                    h["evidence"].get<double>()))) + "): the split kept";
+                          else
+                            how = std::string(h["evidence"].get<double>() < -options.bic_threshold ? "fits better"
+                                                                                                   : "fits as well") +
+                                  " (evidence " + std::to_string(static_cast<int>(std::lround(h["evidence"].get<double>()))) +
+                                  "): kept" +
+                                  (now.determined ? "; there its profile determines it" : "; still not determined");
+                          std::snprintf(words, sizeof words,
+                                        "; the fit's split (%s %.4g, %s %.3g) left %s not determined by the record, "
+                                        "only %s: with %s held at the case's %.4g (not traded against the effect) "
+                                        "%s = %.3g %s; over %s's declared range (%.4g-%.4g) %s would be %s to %s",
+                                        partner.c_str(), split_value, spec.key.c_str(),
+                                        h["split"][spec.key].get<double>(), spec.key.c_str(), comb->name.c_str(),
+                                        partner.c_str(), case_value, spec.key.c_str(),
+                                        h.contains("held_value") ? h["held_value"].get<double>() : std::nan(""),
+                                        ("(" + how + ")").c_str(), partner.c_str(), q.lower, q.upper,
+                                        spec.key.c_str(), bound(range_lo).c_str(), bound(range_hi).c_str());
+                          rr.uncertainty_sentence += words;
+                          rr.held_partner = h;
+                        }
                     }
                 }
               catch (const std::exception &e)
@@ -3055,6 +3227,7 @@ namespace rectify::diagnosis
                           {"uncertainty_sentence", rr.uncertainty_sentence},
                           {"uncertainty_runs_of_the_model", rr.uncertainty_runs},
                           {"moved_along_its_profile", rr.profile_moves},
+                          {"held_partner", rr.held_partner},
                           {"force_gain", rr.force_gain},
                           {"baseline", rr.baseline},
                           {"baseline_fit", check},
@@ -3107,6 +3280,7 @@ namespace rectify::diagnosis
             {"parameters", parameters},
             {"parameter_uncertainty", rounds.front()["parameter_uncertainty"]},
             {"combined", rounds.front()["combined"]},
+            {"held_partner", rounds.front()["held_partner"]},
             {"uncertainty_sentence", first.uncertainty_sentence},
             {"confidence", first.confidence},
             {"decision", first.decision},

@@ -295,6 +295,11 @@ namespace rectify::diagnosis
     /// Where the fit moved to a better side of its profile: each move's
     /// value, training residual (noise units) and evidence (negative: better)
     nlohmann::json                    profile_moves = nlohmann::json::array();
+    /// A parameter the record does not determine whose combination it does:
+    /// the baseline parameter it trades with held at the case's value
+    /// (parameter, case_value, split, held_value, evidence, kept,
+    /// effect_over_its_range, range); null where not tried.
+    nlohmann::json                    held_partner = nullptr;
   };
 
   /// A quantity an effect shares with the baseline (Effect::Combination:

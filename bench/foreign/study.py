@@ -18,7 +18,7 @@ diagnosis already on disk is not redone). DIR/study.md: the confusion matrix
 (rows hidden, columns named), parameter errors, verdicts, residual after the
 fit in noise units, time per record.
 """
-import argparse, concurrent.futures, csv, json, math, os, subprocess, sys, threading, time
+import argparse, concurrent.futures, csv, json, math, os, subprocess, sys, threading, time, tomllib
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
@@ -136,6 +136,66 @@ def run_case(args, name, effect):
     return row
 
 
+def seal_reach(args, rows):
+    """The seals against what the case's declared oil column can hold. A
+    no-flow record tells the high side's compliance, the column's and the
+    seal's together (docs/diagnosis.md, "Five records per effect"): where the
+    bench's sum lies within what the column reaches at its declared upper
+    bound, the calibrated baseline can take the whole seal up as oil. The
+    reach is the case's: its [uncertain] upper bound on
+    cylinder.wetted_length_m, at the piston area the calibrated baseline
+    could reach (the case's where it held it, as in a no-flow record; else
+    the area's upper bound), the case's high-side share and bulk modulus.
+    Returns the report's lines (none without seal records)."""
+    seals = [r for r in rows if r["truth"] == "outlet_compliance"]
+    if not seals:
+        return []
+    case_path = args.case or os.path.join(HERE, "..", "..", "cases", "reference.toml")
+    with open(case_path, "rb") as fh:
+        case = tomllib.load(fh)
+    try:
+        length_max = case["uncertain"]["cylinder.wetted_length_m"][1]
+    except KeyError:
+        length_max = case["cylinder"]["wetted_length_m"]  # not declared uncertain: the column is fixed
+    share, beta = case["cylinder"]["high_side_fraction"], case["fluid"]["bulk_modulus_Pa"]
+    md = ["", "The seals against what the declared oil column can hold (a no-flow record tells the high side's "
+          f"sum; the column reaches {length_max:g} m in {os.path.basename(case_path)}; seal as the baseline "
+          "took it up: the verdict's `absorbed_by_baseline`):", "",
+          "| case | bench's seal | bench's high side (oil + seal) | the column's reach | within reach | named | "
+          "seal as fitted or as taken up | error |", "|---|" + "---|" * 7]
+    tally = {True: [0, 0], False: [0, 0]}  # within reach -> [records, reported right]
+    for r in seals:
+        d = os.path.join(args.out, r["case"])
+        truth = json.load(open(os.path.join(d, "record", "truth.json")))
+        s = json.load(open(os.path.join(d, "diagnosis", "summary.json")))
+        b = truth["baseline"]
+        high = b["A_po"] * bench.NOMINAL["xi_h"] * b["wet_l"] / bench.NOMINAL["beta"] + truth["value"]
+        # the piston area as the calibrated baseline had it: held at the case's, or free to its bound
+        area = case["cylinder"]["piston_area_m2"]
+        for q in s.get("baseline_fit") or []:
+            if q["parameter"] == "cylinder.piston_area_m2" and q["identifiable"]:
+                area = q["bounds"][1]
+        reach = area * share * length_max / beta
+        within = high <= reach
+        seal, how = None, "-"
+        if r["named"] == "outlet_compliance" and r["fitted_value"]:
+            seal, how = float(r["fitted_value"]), "named"
+        else:
+            for a in s.get("absorbed_by_baseline") or []:
+                if a["effect"] == "outlet_compliance":
+                    seal, how = a["as_the_effect"], "taken up"
+        err = f"{100 * (seal / truth['value'] - 1):+.1f} %" if seal else "-"
+        # right: named beyond the reach; within it, named or reported as taken up
+        right = how == "named" or (within and how == "taken up")
+        tally[within][0] += 1
+        tally[within][1] += right
+        md.append(f"| {r['case']} | {truth['value']:.3g} | {high:.3g} | {reach:.3g} | {'yes' if within else 'no'} | "
+                  f"{r['named']} | {f'{seal:.3g} ({how})' if seal else '-'} | {err} |")
+    md += ["", f"Beyond the reach: named {tally[False][1]}/{tally[False][0]}. Within it: named or reported as "
+           f"taken up by the baseline {tally[True][1]}/{tally[True][0]}."]
+    return md
+
+
 def report(args):
     path = os.path.join(args.out, "cases.csv")
     rows = list(csv.DictReader(open(path))) if os.path.exists(path) else []
@@ -189,6 +249,7 @@ def report(args):
                   f"{r['true_value'][:9]} | "
                   f"{str(r['fitted_value'])[:9]} | {err} | {float(r['residual_baseline'] or 0):.3g} -> "
                   f"{float(r['residual_after']):.3g} | {r['outliers_true']} / {r['outliers_found']} |")
+    md += seal_reach(args, rows)
     tmp = os.path.join(args.out, "study.md.tmp")
     open(tmp, "w").write("\n".join(md) + "\n")
     os.replace(tmp, os.path.join(args.out, "study.md"))
