@@ -2832,9 +2832,12 @@ namespace rectify::diagnosis
                                   keep ? "kept" : "the split kept", seconds_since(began));
                               if (keep)
                                 {
-                                  int runs_here = 0;
+                                  int        runs_here = 0;
+                                  const auto profiled  = Clock::now();
                                   effect_uncertainty(named_ev, u, cores, rr, runs_here);
                                   rr.uncertainty_sentence = moves_words + rr.uncertainty_sentence;
+                                  say("%s's standard errors and profiles with %s held: %d runs, %.1f s",
+                                      c.effect.c_str(), partner.c_str(), runs_here, seconds_since(profiled));
                                 }
                               else
                                 {
