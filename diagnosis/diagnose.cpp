@@ -2721,7 +2721,7 @@ namespace rectify::diagnosis
                   // where that fits as well as the split (evidence within the
                   // naming's threshold); the effect's values over that
                   // parameter's declared range are reported beside it
-                  // (docs/diagnosis.md, "The seal against the oil column").
+                  // (docs/diagnosis.md, "The seal held at the case's oil column").
                   const auto *comb = named_ev.effect ? named_ev.effect->combination() : nullptr;
                   if (comb && rr.combined && rr.combined->determined && rr.uncertainty.size() == 1 &&
                       !rr.uncertainty.front().determined)
@@ -2823,7 +2823,10 @@ namespace rectify::diagnosis
                                 independent_values(runs, held_sum.n) *
                                 std::log(std::max(held_sum.sum, 1e-300) / std::max(split_sum.sum, 1e-300));
                               h["evidence"] = evidence;
-                              h["held_value"] = rr.values.front();
+                              if (ran) // else the refit failed: nothing held to report
+                                h["held_value"] = rr.values.front();
+                              else
+                                h["refit_failed"] = true;
                               const bool keep = ran && evidence <= options.bic_threshold;
                               say("%s with %s held at the case's %.4g: %s = %.4g (the split's %.4g, %s %.4g); "
                                   "evidence %.1f: %s, %.1f s",
@@ -2862,6 +2865,8 @@ namespace rectify::diagnosis
                           std::string how;
                           if (!from)
                             how = "no value of the effect keeps the sum there: the split kept";
+                          else if (h.contains("refit_failed"))
+                            how = "its refit failed: the split kept";
                           else if (!kept)
                             how = "fits worse (evidence " + std::to_string(static_cast<int>(std::lround(
                                     h["evidence"].get<double>()))) + "): the split kept";
