@@ -394,7 +394,8 @@ namespace rectify::app
                         sci(x.noise_units) + " sd)";
             md += "| `" + rc.run.source + "` | " + diagnosis::to_string(rc.start) +
                   (rc.start_revised.empty() ? "" : " (" + rc.start_revised + ")") + " | " +
-                  (scores.empty() ? "-" : scores) + " | " + std::to_string(rc.n_skip) + " | " +
+                  (scores.empty() ? "-" : scores) + " | " + std::to_string(rc.n_skip) +
+                  (rc.settling_reason.empty() ? "" : " (" + rc.settling_reason + ")") + " | " +
                   (spikes.empty() ? "none" : spikes) + " | " +
                   (rc.band_Hz > 0 ? "within " + format_number(rc.harmonics) + " harmonics (to " +
                                       format_number(std::round(rc.band_Hz)) + " Hz; " + rc.band_reason + ")" :
@@ -587,7 +588,8 @@ namespace rectify::app
         ->check(CLI::Range(1.0, 1000.0))
         ->capture_default_str();
       cmd->add_option("--settling-cycles", o->options.settling_cycles,
-                      "cycles at each record's start left out of the residual (default: 0 from rest, else 1)")
+                      "cycles at each record's start left out of the residual (default: 0 from rest, else 1, and "
+                      "from the named fit on the named model's memory of its start, at least 1)")
         ->check(CLI::Range(0.0, 100.0));
       cmd->add_option("--harmonics", o->harmonics,
                       "compare data and model within this many harmonics of the pumping frequency (0: every "

@@ -73,8 +73,13 @@ namespace rectify::diagnosis
     std::string         start              = "auto";
     double              lead_cycles        = 10;  ///< run-in before a periodic start (steady: 3)
     /// Cycles at the start of each record left out of every residual
-    /// (the estimated start state is approximate); < 0: 0 for a rest start, 1 otherwise.
+    /// (the estimated start state is approximate); < 0: 0 for a rest start,
+    /// otherwise the model's memory of its start (settle), at least 1.
     double              settling_cycles    = -1;
+    /// The model's memory of its start ends at the first cycle from which
+    /// its runs from two starts differ by at most this many noise units
+    /// (RMS over each later training cycle): settle.
+    double              settling_tolerance = 1.0;
     bool                repair_outliers    = true; ///< find isolated spikes, report and replace them
     /// Data and model are compared within the first `harmonics` harmonics of
     /// the pumping frequency (both band-limited at (harmonics + 0.5) f): fast
@@ -134,6 +139,11 @@ namespace rectify::diagnosis
     double                        drive_noise_sd = 0; ///< estimated from the drive
     std::size_t                   n_train = 0; ///< samples the fit sees (end of the training part)
     std::size_t                   n_skip  = 0; ///< settling samples left out at the start
+    /// The model's runs from its start and from another (its periodic
+    /// orbit; a periodic start: the recorded state), RMS difference per
+    /// training cycle in noise units (settle; empty where not computed)
+    std::vector<double>           start_memory;
+    std::string                   settling_reason; ///< why n_skip is what it is
     StartState                    start   = StartState::rest;
     double                        lead_cycles = 0;   ///< simulated before the record
     /// Its state at the first sample (StartState::record), read once from
@@ -424,6 +434,25 @@ namespace rectify::diagnosis
   /// its settling window.
   void choose_start(const system::SystemParameters &base, const system::ValveMaps &map,
                     std::vector<RunCase> &runs, const DiagnoseOptions &options, unsigned threads = 1);
+
+  /// The first of `per_cycle`'s cycles from which every later value is at
+  /// most `tolerance`, kept within [min_cycles, max_cycles] (max_cycles if
+  /// the last is above it).
+  std::size_t settled_from(const std::vector<double> &per_cycle, double tolerance, std::size_t min_cycles,
+                           std::size_t max_cycles);
+
+  /// Sets the settling window of each run that does not start at rest
+  /// (options.settling_cycles < 0) from the model's memory of its start:
+  /// `base` run from the run's start and from another (its periodic orbit;
+  /// a periodic start: the recorded state) over the training part; the
+  /// window ends where the two agree within options.settling_tolerance
+  /// noise units in every later cycle (the runs' scales), at least one
+  /// cycle and at most half the training part. An estimated start state is
+  /// wrong in what the record does not show; its error fades as fast as
+  /// the model forgets where it started (docs/diagnosis.md, "The start's
+  /// memory").
+  void settle(const system::SystemParameters &base, const system::ValveMaps &map, std::vector<RunCase> &runs,
+              const DiagnoseOptions &options, unsigned threads = 1);
 
   /// Sets each run's residual scales (noise) with the model `base`, the
   /// runs simulated `threads` at once.

@@ -161,6 +161,17 @@ if s["residual_after"]["overall"] > 2:  # the verdict says what is left
     ok = ok and s["verdict"] == "partly explained"
 if t["start"] != "rest":  # a record from mid-operation is not simulated from rest
     ok = ok and s["localisation"][0]["start"] != "rest"
+# the named fit's settling window (diagnose.cpp, settle): what its reason
+# says, in samples (one cycle where the model's runs never meet)
+loc = s["localisation"][0]
+if s["effect"] != "none" and loc["start"] != "rest":
+    with open(f"{out}/record/data.csv") as fh:
+        rows = fh.read().split("\n", 3)[1:3]
+    per_cycle = 1.0 / (t["frequency_Hz"] * (float(rows[1].split(",")[0]) - float(rows[0].split(",")[0])))
+    m = re.match(r"(\d+|one) cycles?\b", loc.get("settling_reason", ""))
+    cycles = None if not m else 1 if m.group(1) == "one" else int(m.group(1))
+    print("settling:", loc["settling_samples_left_out"], "samples;", loc.get("settling_reason"))
+    ok = ok and cycles is not None and abs(loc["settling_samples_left_out"] - round(cycles * per_cycle)) <= 1
 # candidates far from being named are not restarted (diagnose.cpp, fit()):
 # never the named one, each closing less than the half of the gap that
 # naming needs; some, where expected (expect_cut above)

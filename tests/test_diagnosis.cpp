@@ -745,6 +745,25 @@ TEST(Diagnosis, ComparedCyclesAreSharedOutOverTheRuns)
 // from 0.0147 to 68 N): the two best points overall (0.32 and 0.68 N on
 // the first line) are one valley; the second valley is 6.8 N on the
 // second line, the friction's own basin (the bench's 4.6 N).
+// The settling window ends at the first cycle from which every later one is
+// within the tolerance: an exponential fade 100 exp(-c / 1.5) reaches 1 at
+// c = 1.5 ln 100 = 6.91, so cycle 7 is the first within it; a late bump
+// above it moves the end past the bump; the window stays within its bounds.
+TEST(Diagnosis, TheSettlingWindowEndsWhereEveryLaterCycleIsWithinTheTolerance)
+{
+  std::vector<double> fade;
+  for (int c = 0; c < 12; ++c)
+    fade.push_back(100 * std::exp(-c / 1.5));
+  EXPECT_EQ(settled_from(fade, 1.0, 1, 6), 6u);  // at most half of the 12
+  EXPECT_EQ(settled_from(fade, 1.0, 1, 10), 7u);
+  EXPECT_EQ(settled_from(fade, 10.0, 1, 10), 4u); // 100 exp(-4 / 1.5) = 6.9 <= 10 < 13.5
+  auto bump = fade;
+  bump[9]   = 1.5;
+  EXPECT_EQ(settled_from(bump, 1.0, 1, 11), 10u);
+  EXPECT_EQ(settled_from(std::vector<double>(12, 0.5), 1.0, 1, 6), 1u); // within from the start: the least
+  EXPECT_EQ(settled_from(std::vector<double>(12, 5.0), 1.0, 1, 6), 6u); // never: the most
+}
+
 TEST(Diagnosis, StartGridValleysAreTheLowestOfTheirNeighboursOnTheirOwnLine)
 {
   const std::vector<double> fit_line{28.03, 27.94, 27.71, 27.37, 26.77, 26.80,
