@@ -1390,6 +1390,9 @@ namespace rectify::diagnosis
         const double dt = (t.back() - t.front()) / static_cast<double>(t.size() - 1);
         const double m  = 1.0 / (rc.setup.frequency_Hz * dt); // samples per cycle
         const auto   cycles = static_cast<std::size_t>(std::floor(static_cast<double>(rc.n_train) / m));
+        // one cycle unless measured (as choose_start left it; set again for
+        // a later round, which may not choose the start again)
+        rc.n_skip = std::min(rc.n_train / 2, static_cast<std::size_t>(std::llround(m)));
         if (!ok[r][0] || !ok[r][1] || cycles < 2)
           {
             rc.settling_reason = "one cycle (the model's memory of its start not measured: " +
