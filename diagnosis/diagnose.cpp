@@ -1352,6 +1352,15 @@ namespace rectify::diagnosis
     return std::clamp(c, min_cycles, std::max(min_cycles, max_cycles));
   }
 
+  bool runs_meet(const std::vector<double> &d, double tolerance)
+  {
+    if (d.empty())
+      return false;
+    // runs that have come at least half-way together meet later (a slow
+    // mode); the window is then the most settled_from allows
+    return d.back() <= tolerance || d.back() <= 0.5 * *std::max_element(d.begin(), d.end());
+  }
+
   void settle(const system::SystemParameters &base, const system::ValveMaps &map, std::vector<RunCase> &runs,
               const DiagnoseOptions &options, unsigned threads)
   {
@@ -1418,15 +1427,17 @@ namespace rectify::diagnosis
               }
             rc.start_memory.push_back(std::sqrt(sum / static_cast<double>(std::max<std::size_t>(n, 1))));
           }
-        char buf[320];
-        if (rc.start_memory.back() > options.settling_tolerance)
+        char         buf[400];
+        const double largest = *std::max_element(rc.start_memory.begin(), rc.start_memory.end());
+        if (!runs_meet(rc.start_memory, options.settling_tolerance))
           {
             // two orbits (an outlet valve that opens every cycle from one
             // start and stays shut from the other): no memory to measure
             std::snprintf(buf, sizeof buf,
                           "one cycle: the model's runs from the %s start and from the %s one do not meet within the "
-                          "training part (%.3g noise units apart in its last cycle)",
-                          to_string(rc.start).c_str(), other.c_str(), rc.start_memory.back());
+                          "training part, nor come half-way together (%.3g noise units apart in its last cycle, "
+                          "%.3g at most)",
+                          to_string(rc.start).c_str(), other.c_str(), rc.start_memory.back(), largest);
             rc.settling_reason = buf;
             if (options.progress)
               options.progress("settling of " + rc.run.source + ": " + rc.settling_reason);

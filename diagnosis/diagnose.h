@@ -441,13 +441,22 @@ namespace rectify::diagnosis
   std::size_t settled_from(const std::vector<double> &per_cycle, double tolerance, std::size_t min_cycles,
                            std::size_t max_cycles);
 
+  /// Whether the model's runs from two starts, `per_cycle` apart (noise
+  /// units, RMS per training cycle), meet: within `tolerance` in the last
+  /// cycle, or closer there than half their largest difference (they meet
+  /// later: a slow mode). Otherwise they are taken to be on two orbits.
+  bool runs_meet(const std::vector<double> &per_cycle, double tolerance);
+
   /// Sets the settling window of each run that does not start at rest
   /// (options.settling_cycles < 0) from the model's memory of its start:
   /// `base` run from the run's start and from another (its periodic orbit;
   /// a periodic start: the recorded state) over the training part; the
   /// window ends where the two agree within options.settling_tolerance
   /// noise units in every later cycle (the runs' scales), at least one
-  /// cycle and at most half the training part. An estimated start state is
+  /// cycle and at most half the training part (there too where they have
+  /// not met by the end but are closer than half their largest difference:
+  /// a slow mode). Runs that stay further apart (two orbits) leave one
+  /// cycle. An estimated start state is
   /// wrong in what the record does not show; its error fades as fast as
   /// the model forgets where it started (docs/diagnosis.md, "The start's
   /// memory").

@@ -764,6 +764,30 @@ TEST(Diagnosis, TheSettlingWindowEndsWhereEveryLaterCycleIsWithinTheTolerance)
   EXPECT_EQ(settled_from(std::vector<double>(12, 5.0), 1.0, 1, 6), 6u); // never: the most
 }
 
+TEST(Diagnosis, TwoStartsRunsMeetWhereTheyComeWithinTheToleranceOrHalfWayTogether)
+{
+  // the model's runs from two starts, noise units apart per training cycle,
+  // as settle measured them on four of the bench's records (forty-fourth stop)
+  const std::vector<double> slow_line{107.07, 89.22, 73.74, 57.33, 44.75, 34.04,
+                                      26.92, 21.43, 15.95, 12.5, 9.94, 7.51};  // line_inertance-3
+  const std::vector<double> two_orbits{72.43, 47.59, 57.66, 56.12, 56.97, 56.89,
+                                       54.54, 53.41, 56.98, 56.96, 53.17, 49.23}; // line_inertance-4
+  const std::vector<double> flutter{124.31, 57.24, 3.1, 1.8, 1.27, 1.13, 1.12, 1.11, 1.11, 1.11, 1.11}; // piston_friction-2
+  const std::vector<double> seal{539.2, 500.85, 465.93, 435.98, 411.14, 391.12,
+                                 375.27, 361.6, 347.69, 332.59, 316.12}; // outlet_compliance-0
+  EXPECT_TRUE(runs_meet(slow_line, 1.0));
+  EXPECT_TRUE(runs_meet(flutter, 1.0));
+  EXPECT_FALSE(runs_meet(two_orbits, 1.0));
+  EXPECT_FALSE(runs_meet(seal, 1.0)); // 59 % of the way left
+  // a slow run meets later: the window is the most settled_from allows
+  EXPECT_EQ(settled_from(slow_line, 1.0, 1, slow_line.size() / 2), 6u);
+  EXPECT_EQ(settled_from(flutter, 1.0, 1, flutter.size() / 2), 5u);
+  EXPECT_TRUE(runs_meet({3.0, 0.9}, 1.0));  // within the tolerance
+  EXPECT_TRUE(runs_meet({0.5, 0.9}, 1.0));  // within it, even if growing
+  EXPECT_FALSE(runs_meet({3.0, 1.6}, 1.0)); // above it, not half-way
+  EXPECT_FALSE(runs_meet({}, 1.0));
+}
+
 TEST(Diagnosis, StartGridValleysAreTheLowestOfTheirNeighboursOnTheirOwnLine)
 {
   const std::vector<double> fit_line{28.03, 27.94, 27.71, 27.37, 26.77, 26.80,
