@@ -453,13 +453,12 @@ namespace rectify::diagnosis
   /// a periodic start: the recorded state) over the training part; the
   /// window ends where the two agree within options.settling_tolerance
   /// noise units in every later cycle (the runs' scales), at least one
-  /// cycle and at most half the training part (there too where they have
-  /// not met by the end but are closer than half their largest difference:
-  /// a slow mode). Runs that stay further apart (two orbits) leave one
-  /// cycle. An estimated start state is
-  /// wrong in what the record does not show; its error fades as fast as
-  /// the model forgets where it started (docs/diagnosis.md, "The start's
-  /// memory").
+  /// cycle and at most half the training part (the most also where they
+  /// have not met by the end but have come half-way together: runs_meet).
+  /// Runs that stay further apart (two orbits) leave one cycle. An
+  /// estimated start state is wrong in what the record does not show; its
+  /// error fades as fast as the model forgets where it started
+  /// (docs/diagnosis.md, "The start's memory", "Runs that meet later").
   void settle(const system::SystemParameters &base, const system::ValveMaps &map, std::vector<RunCase> &runs,
               const DiagnoseOptions &options, unsigned threads = 1);
 
