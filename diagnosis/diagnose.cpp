@@ -1427,12 +1427,12 @@ namespace rectify::diagnosis
               }
             rc.start_memory.push_back(std::sqrt(sum / static_cast<double>(std::max<std::size_t>(n, 1))));
           }
-        char         buf[400];
-        const double largest = *std::max_element(rc.start_memory.begin(), rc.start_memory.end());
+        char buf[400];
         if (!runs_meet(rc.start_memory, options.settling_tolerance))
           {
             // two orbits (an outlet valve that opens every cycle from one
             // start and stays shut from the other): no memory to measure
+            const double largest = *std::max_element(rc.start_memory.begin(), rc.start_memory.end());
             std::snprintf(buf, sizeof buf,
                           "one cycle: the model's runs from the %s start and from the %s one do not meet within the "
                           "training part, nor come half-way together (%.3g noise units apart in its last cycle, "
