@@ -2651,7 +2651,7 @@ namespace rectify::diagnosis
               rr.confidence = std::exp(-0.5 * (c.bic - bic_min)) / weight_sum;
               rr.signature_explained = true;
               std::snprintf(buf, sizeof buf,
-                            "dominant residual feature (%s, %s half) %.3g -> %.3g of its swing", signal.c_str(),
+                            "dominant residual feature (%s, %s half) %.3g -> %.3g noise units", signal.c_str(),
                             half.c_str(), feature_before, after);
               rr.signature_detail = buf;
               std::snprintf(buf, sizeof buf,
@@ -3152,18 +3152,25 @@ namespace rectify::diagnosis
       const auto   gap         = [](double r) { return gap_above_noise(r * r); };
       result.residual_baseline  = baseline;
       result.explained_fraction = gap(baseline) > 0 ? std::clamp(1.0 - gap(after) / gap(baseline), 0.0, 1.0) : 0.0;
-      // where the rest lies: the largest residual of the final model
+      // where the rest lies: the final model's largest residual in noise
+      // units, the units the verdict counts (entrained_air-0 on the bench
+      // had 2.72 units left in the strain and 1.07 in the outlet pressure;
+      // the sentence named the first signal above 3 % of its swing, the
+      // outlet pressure, which a no-flow record hardly swings)
       std::string where;
       double      worst = -1;
       for (std::size_t r = 0; r < runs.size(); ++r)
         {
-          const auto L = localise(runs[r].run, result.after[r], runs[r].setup.frequency_Hz, runs[r].swings);
-          const auto v = residual_norms(runs[r].run, result.after[r], runs[r].scales, runs[r].n_skip)
-                           .at(L.dominant_signal);
-          if (v > worst && !L.sentences.empty())
+          const auto L = largest_residual(runs[r].run, result.after[r], runs[r].setup.frequency_Hz, runs[r].swings,
+                                          runs[r].scales, runs[r].n_skip);
+          if (!L.signal.empty() && L.noise_units > worst)
             {
-              worst = v;
-              where = L.sentences.front();
+              worst = L.noise_units;
+              where = L.description + (runs.size() > 1 ? " (run " + runs[r].run.source + ")" : "");
+              result.largest_residual_after = {{"run", runs[r].run.source},
+                                               {"signal", L.signal},
+                                               {"noise_units", L.noise_units},
+                                               {"description", L.description}};
             }
         }
       const std::string named_effect = result.rounds.front().effect;
@@ -3430,6 +3437,7 @@ namespace rectify::diagnosis
             {"residual_shrink", shrink},
             {"verdict", r.verdict},
             {"verdict_sentence", r.verdict_sentence},
+            {"largest_residual_after", r.largest_residual_after},
             {"absorbed_by_baseline", absorbed},
             {"explained_fraction", r.explained_fraction},
             {"residual_baseline_fit", r.residual_baseline},
@@ -3454,6 +3462,10 @@ namespace rectify::diagnosis
                            "model's response to the drive's noise), per signal over every run; overall: RMS "
                            "over the signals. About 1 when the model explains the data to within its noise"},
               {"residual_before_fraction_of_swing", "the same residual over the measured signal's RMS about its mean"},
+              {"largest_residual_after",
+               "where the final model leaves the most, the verdict's \"where\": the run and signal with the "
+               "largest residual in noise units (from the run's settling on), and how that residual lies (its "
+               "share of the swing, cycle half, mean offset, harmonic, trend over the record)"},
               {"bic", "n ln(SSR/n) + k ln n on the training samples (first part of each run; for the "
                       "candidates, the first compared_cycles_per_run cycles of it after the settling)"},
               {"compared_cycles_per_run",

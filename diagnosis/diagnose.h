@@ -341,6 +341,10 @@ namespace rectify::diagnosis
     std::string               verdict;
     std::string               verdict_sentence;
     double                    explained_fraction = 0; ///< of the gap above the noise left by the baseline fit
+    /// Where the final model leaves the most (the verdict's "where"): the
+    /// run's file, the signal, its residual in noise units (from the run's
+    /// settling on) and its description (largest_residual).
+    nlohmann::json            largest_residual_after;
     double                    residual_baseline  = 0; ///< overall, the baseline fit (none), noise units
     /// sqrt(n / independent values of the compared band): how much larger a
     /// baseline parameter's standard error (samples counted as independent,

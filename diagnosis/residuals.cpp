@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <cstdio>
 #include <numbers>
 #include <Eigen/Dense>
 #include <unsupported/Eigen/FFT>
@@ -403,9 +404,7 @@ namespace rectify::diagnosis
         if (name == L.dominant_signal)
           L.dominant_half = e_half[0] >= e_half[1] ? "pressurising" : "refill";
 
-        if (norms.at(name) < 0.03) // within a few percent of the swing: not worth a sentence
-          continue;
-        std::string s = pretty(name) + ": residual " + in_units(name, norms.at(name) * scale) +
+        std::string s = "residual " + in_units(name, norms.at(name) * scale) +
                         " RMS (" + percent(norms.at(name)) + " of its swing), " +
                         percent(total > 0 ? std::max(e_half[0], e_half[1]) / total : 0) +
                         " of it in the " + (e_half[0] >= e_half[1] ? "pressurising stroke" : "refill") +
@@ -423,11 +422,33 @@ namespace rectify::diagnosis
                " x the first)";
         else if (growth > 0 && growth < 1 / 1.5)
           s += "; fades over the record (start-up transient)";
-        L.sentences.push_back(s);
+        L.sentence_of[name] = s;
+        if (norms.at(name) >= 0.03) // within a few percent of the swing: not worth a sentence of its own
+          L.sentences.push_back(pretty(name) + ": " + s);
       }
     if (L.sentences.empty())
       L.sentences.push_back("every signal within 3 % of its swing: no clear disagreement");
     return L;
+  }
+
+  LargestResidual largest_residual(const MeasuredRun &run, const Signals &model, double f,
+                                   const std::map<std::string, double> &swings,
+                                   const std::map<std::string, double> &noise, std::size_t from)
+  {
+    LargestResidual out;
+    out.noise_units = -1;
+    for (const auto &[name, v] : residual_norms(run, model, noise, from))
+      if (name != "overall" && v > out.noise_units)
+        {
+          out.signal      = name;
+          out.noise_units = v;
+        }
+    if (out.signal.empty())
+      return {};
+    char units[64];
+    std::snprintf(units, sizeof units, ", %.3g noise units: ", out.noise_units);
+    out.description = pretty(out.signal) + units + localise(run, model, f, swings).sentence_of.at(out.signal);
+    return out;
   }
 
   std::vector<std::string> trends(const std::vector<double> &f, const std::vector<double> &a,

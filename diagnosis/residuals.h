@@ -82,11 +82,28 @@ namespace rectify::diagnosis
   {
     nlohmann::json           numbers;
     std::vector<std::string> sentences;
+    std::map<std::string, std::string> sentence_of; ///< every signal's, without its name (sentences: those above 3 % of the swing)
     std::string              dominant_signal; ///< largest normalised residual
     std::string              dominant_half;   ///< "pressurising" or "refill"
   };
   Localisation localise(const MeasuredRun &run, const Signals &model, double frequency_Hz,
                         const std::map<std::string, double> &scales);
+
+  /// Where most of what a model leaves lies, in the units the verdict
+  /// counts: the signal with the largest RMS residual in units of its
+  /// noise (`noise`, from sample `from` on), described as localise() does
+  /// with `swings`. Not the largest share of a swing: a no-flow record's
+  /// outlet pressure hardly swings, so a residual within its noise is a
+  /// large share of it.
+  struct LargestResidual
+  {
+    std::string signal;
+    double      noise_units = 0;
+    std::string description; ///< "strain, 2.72 noise units: residual ... RMS (5 % of its swing), ..."
+  };
+  LargestResidual largest_residual(const MeasuredRun &run, const Signals &model, double frequency_Hz,
+                                   const std::map<std::string, double> &swings,
+                                   const std::map<std::string, double> &noise, std::size_t from);
 
   /// Sentences on trends over several runs: residual against frequency and
   /// drive amplitude.
