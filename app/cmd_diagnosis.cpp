@@ -519,7 +519,16 @@ namespace rectify::app
         for (const auto &[name, v] : result.residual_before)
           md += "| " + name + " | " + sci(v) + " | " + sci(result.residual_after.at(name)) + " | " +
                 sci(result.swing_before.at(name)) + " | " + sci(result.swing_after.at(name)) + " |\n";
-        md += "\nNew case file: `" + case_name + "`. Overlays: `overlay-N.png`.\n";
+        md += "\n## Where the final model still disagrees (after)\n\nEach signal's residual in units of its noise "
+              "(from the run's settling on), the most first; then how it lies, in the terms of its swing.\n\n";
+        for (std::size_t r = 0; r < result.remaining.size() && r < runs.size(); ++r)
+          {
+            md += "Run `" + runs[r].run.source + "`:\n\n";
+            for (const auto &s : result.remaining[r])
+              md += "- " + s.description + "\n";
+            md += "\n";
+          }
+        md += "New case file: `" + case_name + "`. Overlays: `overlay-N.png`.\n";
         write_file_atomic(out / "report.md", md);
       }
       write_json(out / "summary.json", summary);

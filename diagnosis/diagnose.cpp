@@ -889,11 +889,16 @@ namespace rectify::diagnosis
                 grid.back().at   = g;
               }
           if (ringing)
-            for (const auto &r : ringing_start(ev, short_runs, c.ringing_note))
-              {
-                add_start(r, fine_step(r));
-                grid.back().from_ringing = true;
-              }
+            {
+              const auto began = Clock::now();
+              for (const auto &r : ringing_start(ev, short_runs, c.ringing_note))
+                {
+                  add_start(r, fine_step(r));
+                  grid.back().from_ringing = true;
+                }
+              c.ringing_runs   = short_runs;
+              c.ringing_time_s = seconds_since(began);
+            }
         }
       else
         add_start(u, 0.5 / grid_points);
@@ -2355,7 +2360,11 @@ namespace rectify::diagnosis
           if (!c.search_note.empty())
             line += "; " + c.search_note;
           if (!c.ringing_note.empty())
-            line += "; ringing starts: " + c.ringing_note;
+            {
+              std::snprintf(buf, sizeof buf, "; ringing starts (%d of the runs, over 3-6 cycles, %.1f s): ",
+                            c.ringing_runs, c.ringing_time_s);
+              line += buf + c.ringing_note;
+            }
           options.progress(line);
         };
         // a progress line of the named fit's later steps (printf's format)
@@ -3161,9 +3170,12 @@ namespace rectify::diagnosis
       double      worst = -1;
       for (std::size_t r = 0; r < runs.size(); ++r)
         {
-          const auto L = largest_residual(runs[r].run, result.after[r], runs[r].setup.frequency_Hz, runs[r].swings,
-                                          runs[r].scales, runs[r].n_skip);
-          if (!L.signal.empty() && L.noise_units > worst)
+          result.remaining.push_back(residuals_in_noise_units(runs[r].run, result.after[r], runs[r].setup.frequency_Hz,
+                                                              runs[r].swings, runs[r].scales, runs[r].n_skip));
+          if (result.remaining.back().empty())
+            continue;
+          const auto &L = result.remaining.back().front();
+          if (L.noise_units > worst)
             {
               worst = L.noise_units;
               where = L.description + (runs.size() > 1 ? " (run " + runs[r].run.source + ")" : "");
@@ -3287,7 +3299,11 @@ namespace rectify::diagnosis
                 if (!c.search_note.empty())
                   cj["search"] = c.search_note;
                 if (!c.ringing_note.empty())
-                  cj["ringing"] = c.ringing_note;
+                  {
+                    cj["ringing"]        = c.ringing_note;
+                    cj["ringing_runs"]   = c.ringing_runs;
+                    cj["ringing_time_s"] = c.ringing_time_s;
+                  }
               }
             candidates.push_back(cj);
           }

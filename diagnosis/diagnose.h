@@ -207,6 +207,8 @@ namespace rectify::diagnosis
     /// What became of each frequency its ringing start tried (an effect
     /// whose parameter sets a ringing: the outlet line), or empty.
     std::string         ringing_note;
+    int                 ringing_runs   = 0; ///< of `evaluations`: the ringing start's (short) runs
+    double              ringing_time_s = 0; ///< of `wall_time_s`: the ringing start's
   };
 
   /// A named effect's parameter at its final fit and how well the record
@@ -343,8 +345,10 @@ namespace rectify::diagnosis
     double                    explained_fraction = 0; ///< of the gap above the noise left by the baseline fit
     /// Where the final model leaves the most (the verdict's "where"): the
     /// run's file, the signal, its residual in noise units (from the run's
-    /// settling on) and its description (largest_residual).
+    /// settling on) and its description (residuals_in_noise_units).
     nlohmann::json            largest_residual_after;
+    /// Per run, what the final model leaves in each signal, the most first.
+    std::vector<std::vector<SignalResidual>> remaining;
     double                    residual_baseline  = 0; ///< overall, the baseline fit (none), noise units
     /// sqrt(n / independent values of the compared band): how much larger a
     /// baseline parameter's standard error (samples counted as independent,

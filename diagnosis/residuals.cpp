@@ -431,23 +431,21 @@ namespace rectify::diagnosis
     return L;
   }
 
-  LargestResidual largest_residual(const MeasuredRun &run, const Signals &model, double f,
-                                   const std::map<std::string, double> &swings,
-                                   const std::map<std::string, double> &noise, std::size_t from)
+  std::vector<SignalResidual> residuals_in_noise_units(const MeasuredRun &run, const Signals &model, double f,
+                                                       const std::map<std::string, double> &swings,
+                                                       const std::map<std::string, double> &noise, std::size_t from)
   {
-    LargestResidual out;
-    out.noise_units = -1;
+    std::vector<SignalResidual> out;
+    const auto                  L = localise(run, model, f, swings);
     for (const auto &[name, v] : residual_norms(run, model, noise, from))
-      if (name != "overall" && v > out.noise_units)
+      if (name != "overall")
         {
-          out.signal      = name;
-          out.noise_units = v;
+          char units[64];
+          std::snprintf(units, sizeof units, ", %.3g noise units: ", v);
+          out.push_back({name, v, pretty(name) + units + L.sentence_of.at(name)});
         }
-    if (out.signal.empty())
-      return {};
-    char units[64];
-    std::snprintf(units, sizeof units, ", %.3g noise units: ", out.noise_units);
-    out.description = pretty(out.signal) + units + localise(run, model, f, swings).sentence_of.at(out.signal);
+    std::stable_sort(out.begin(), out.end(),
+                     [](const SignalResidual &a, const SignalResidual &b) { return a.noise_units > b.noise_units; });
     return out;
   }
 

@@ -89,21 +89,22 @@ namespace rectify::diagnosis
   Localisation localise(const MeasuredRun &run, const Signals &model, double frequency_Hz,
                         const std::map<std::string, double> &scales);
 
-  /// Where most of what a model leaves lies, in the units the verdict
-  /// counts: the signal with the largest RMS residual in units of its
-  /// noise (`noise`, from sample `from` on), described as localise() does
-  /// with `swings`. Not the largest share of a swing: a no-flow record's
-  /// outlet pressure hardly swings, so a residual within its noise is a
-  /// large share of it.
-  struct LargestResidual
+  /// What a model leaves, signal by signal, in the units the verdict
+  /// counts: each signal's RMS residual in units of its noise (`noise`,
+  /// from sample `from` on), described as localise() does with `swings`;
+  /// the most first. The first is where most of it lies, which is not the
+  /// largest share of a swing: a no-flow record's outlet pressure hardly
+  /// swings, so a residual within its noise is a large share of it.
+  struct SignalResidual
   {
     std::string signal;
     double      noise_units = 0;
-    std::string description; ///< "strain, 2.72 noise units: residual ... RMS (5 % of its swing), ..."
+    std::string description; ///< "strain, 2.72 noise units: residual ... RMS (1 % of its swing), ..."
   };
-  LargestResidual largest_residual(const MeasuredRun &run, const Signals &model, double frequency_Hz,
-                                   const std::map<std::string, double> &swings,
-                                   const std::map<std::string, double> &noise, std::size_t from);
+  std::vector<SignalResidual> residuals_in_noise_units(const MeasuredRun &run, const Signals &model,
+                                                       double frequency_Hz,
+                                                       const std::map<std::string, double> &swings,
+                                                       const std::map<std::string, double> &noise, std::size_t from);
 
   /// Sentences on trends over several runs: residual against frequency and
   /// drive amplitude.

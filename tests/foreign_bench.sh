@@ -224,6 +224,12 @@ for e in entries:
         continue
     ok = ok and (e == "no peak in the residual's spectrum where it can ring" or e.endswith("Hz: out of its range"))
 print("line ringing: %d frequencies, %d starts, %d pair grids not run" % (len(entries), starts, skipped))
+if entries:  # its share of the candidate's runs and time (a part of them)
+    print("line ringing: %s of %s runs, %.1f of %.1f s"
+          % (line.get("ringing_runs"), line["evaluations"], line.get("ringing_time_s", -1), line["wall_time_s"]))
+    ok = ok and 0 <= line.get("ringing_runs", -1) <= line["evaluations"]
+    ok = ok and 0 <= line.get("ringing_time_s", -1) <= line["wall_time_s"]
+    ok = ok and (line["ringing_runs"] > 0) == (entries != ["no peak in the residual's spectrum where it can ring"])
 if form in ("line", "line-short", "line-moved"):
     ok = ok and starts >= 1
 print("residual after", s["residual_after"]["overall"], "noise units (at most", max_residual, ")")

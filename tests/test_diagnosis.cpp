@@ -595,7 +595,16 @@ TEST(Diagnosis, TheLargestResidualIsCountedInNoiseUnitsNotInShareOfTheSwing)
   // by share of the swing the outlet pressure dominates ...
   EXPECT_EQ(localise(run, model, f, swings).dominant_signal, "outlet_pressure_Pa");
   // ... in noise units the strain does, 4 units from the first sample on
-  const auto L = largest_residual(run, model, f, swings, noise, 0);
+  const auto all_three = residuals_in_noise_units(run, model, f, swings, noise, 0);
+  ASSERT_EQ(all_three.size(), 3u);
+  // the most first: strain 4, chamber 2, outlet 0.5
+  EXPECT_EQ(all_three[1].signal, "chamber_pressure_Pa");
+  EXPECT_NEAR(all_three[1].noise_units, 2.0, 1e-6);
+  EXPECT_EQ(all_three[2].signal, "outlet_pressure_Pa");
+  EXPECT_NEAR(all_three[2].noise_units, 0.5, 1e-6);
+  EXPECT_EQ(all_three[2].description.rfind("outlet pressure, 0.5 noise units: residual 0.005 MPa RMS (71 % of its swing)", 0), 0u)
+    << all_three[2].description;
+  const auto &L = all_three.front();
   EXPECT_EQ(L.signal, "strain");
   EXPECT_NEAR(L.noise_units, 4.0, 1e-6);
   EXPECT_EQ(L.description.rfind("strain, 4 noise units: residual 3e-06 RMS (4 % of its swing)", 0), 0u)
@@ -605,18 +614,18 @@ TEST(Diagnosis, TheLargestResidualIsCountedInNoiseUnitsNotInShareOfTheSwing)
   auto late = model;
   for (std::size_t i = 0; i < 600; ++i)
     late["strain"][i] += 1e-4; // only in the first half
-  const auto skipped = largest_residual(run, late, f, swings, noise, 600);
+  const auto skipped = residuals_in_noise_units(run, late, f, swings, noise, 600).front();
   EXPECT_EQ(skipped.signal, "strain");
   EXPECT_NEAR(skipped.noise_units, 4.0, 1e-6);
   // counted from the first sample: 600 samples at 103e-6 / 7.5e-7, the other 601 at 4
   const double all = std::sqrt((600 * std::pow(103e-6 / 7.5e-7, 2) + 601 * 16.0) / 1201);
-  EXPECT_NEAR(largest_residual(run, late, f, swings, noise, 0).noise_units, all, 1e-6 * all);
+  EXPECT_NEAR(residuals_in_noise_units(run, late, f, swings, noise, 0).front().noise_units, all, 1e-6 * all);
   // a signal within 3 % of its swing has no sentence in the localisation,
   // but the largest in noise units is described all the same
   Signals chamber_only{{"chamber_pressure_Pa", model["chamber_pressure_Pa"]}};
   EXPECT_EQ(localise(run, chamber_only, f, swings).sentences.front(),
             "every signal within 3 % of its swing: no clear disagreement");
-  const auto c = largest_residual(run, chamber_only, f, swings, noise, 0);
+  const auto c = residuals_in_noise_units(run, chamber_only, f, swings, noise, 0).front();
   EXPECT_EQ(c.signal, "chamber_pressure_Pa");
   EXPECT_NEAR(c.noise_units, 2.0, 1e-6);
   EXPECT_EQ(c.description.rfind("chamber pressure, 2 noise units: residual 0.02 MPa RMS (1 % of its swing)", 0), 0u)

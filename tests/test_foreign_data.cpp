@@ -951,6 +951,22 @@ TEST(ForeignData, TheVerdictSaysBeyondTheLibraryWhenNothingFits)
   EXPECT_EQ(largest["signal"], most) << largest.dump();
   EXPECT_DOUBLE_EQ(largest["noise_units"].get<double>(), s["residual_after"][most].get<double>());
   EXPECT_NE(sentence.find(largest["description"].get<std::string>()), std::string::npos) << largest.dump();
+  // the report lists every signal after the fit, the most first
+  std::ifstream     in(dir / "d" / "report.md");
+  const std::string report((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const auto        after = report.find("## Where the final model still disagrees (after)");
+  ASSERT_NE(after, std::string::npos) << report;
+  const auto first = report.find("\n- ", after);
+  ASSERT_NE(first, std::string::npos) << report.substr(after);
+  EXPECT_EQ(report.compare(first + 3, largest["description"].get<std::string>().size(),
+                           largest["description"].get<std::string>()),
+            0)
+    << report.substr(after);
+  std::size_t listed = 0;
+  for (auto at = first; at != std::string::npos && at < report.find("New case file", after);
+       at = report.find("\n- ", at + 1))
+    ++listed;
+  EXPECT_EQ(listed, s["residual_after"].size() - 1) << report.substr(after); // every signal, not "overall"
 }
 
 // The state a record shows at its first sample (--start record): pressures
