@@ -82,7 +82,8 @@ namespace rectify::diagnosis
   {
     nlohmann::json           numbers;
     std::vector<std::string> sentences;
-    std::map<std::string, std::string> sentence_of; ///< every signal's, without its name (sentences: those above 3 % of the swing)
+    /// every signal's sentence, without its name (`sentences`: those above 3 % of the swing)
+    std::map<std::string, std::string> sentence_of;
     std::string              dominant_signal; ///< largest normalised residual
     std::string              dominant_half;   ///< "pressurising" or "refill"
   };

@@ -578,7 +578,7 @@ TEST(Diagnosis, TheLargestResidualIsCountedInNoiseUnitsNotInShareOfTheSwing)
     }
   const auto run    = MeasuredRun::parse(text, "largest.csv");
   const auto swings = signal_scales(run);
-  // the model: the outlet pressure 5 kPa high (70 % of its swing, half its
+  // the model: the outlet pressure 5 kPa high (71 % of its swing, half its
   // 10 kPa noise), the strain 3e-6 high (4 % of its swing, 4 x its noise),
   // the chamber 20 kPa high (1 % of its swing, 2 x its noise)
   Signals model{{"chamber_pressure_Pa", run.signal("chamber_pressure_Pa")},
@@ -602,7 +602,9 @@ TEST(Diagnosis, TheLargestResidualIsCountedInNoiseUnitsNotInShareOfTheSwing)
   EXPECT_NEAR(all_three[1].noise_units, 2.0, 1e-6);
   EXPECT_EQ(all_three[2].signal, "outlet_pressure_Pa");
   EXPECT_NEAR(all_three[2].noise_units, 0.5, 1e-6);
-  EXPECT_EQ(all_three[2].description.rfind("outlet pressure, 0.5 noise units: residual 0.005 MPa RMS (71 % of its swing)", 0), 0u)
+  EXPECT_EQ(all_three[2].description.rfind(
+              "outlet pressure, 0.5 noise units: residual 0.005 MPa RMS (71 % of its swing)", 0),
+            0u)
     << all_three[2].description;
   const auto &L = all_three.front();
   EXPECT_EQ(L.signal, "strain");
@@ -628,7 +630,8 @@ TEST(Diagnosis, TheLargestResidualIsCountedInNoiseUnitsNotInShareOfTheSwing)
   const auto c = residuals_in_noise_units(run, chamber_only, f, swings, noise, 0).front();
   EXPECT_EQ(c.signal, "chamber_pressure_Pa");
   EXPECT_NEAR(c.noise_units, 2.0, 1e-6);
-  EXPECT_EQ(c.description.rfind("chamber pressure, 2 noise units: residual 0.02 MPa RMS (1 % of its swing)", 0), 0u)
+  EXPECT_EQ(c.description.rfind("chamber pressure, 2 noise units: residual 0.02 MPa RMS (1 % of its swing)", 0),
+            0u)
     << c.description;
 }
 
