@@ -1064,6 +1064,19 @@ namespace rectify::diagnosis
       return c;
     }
 
+    /// The run and signal where a model leaves the most noise units, from
+    /// each run's list (residuals_in_noise_units, the most first); nullptr
+    /// where no run has a signal.
+    std::pair<std::size_t, const SignalResidual *>
+    most_remaining(const std::vector<std::vector<SignalResidual>> &remaining)
+    {
+      std::pair<std::size_t, const SignalResidual *> most{0, nullptr};
+      for (std::size_t r = 0; r < remaining.size(); ++r)
+        if (!remaining[r].empty() && (!most.second || remaining[r].front().noise_units > most.second->noise_units))
+          most = {r, &remaining[r].front()};
+      return most;
+    }
+
     std::map<std::string, double> pooled_norms(const std::vector<RunCase> &runs,
                                                const std::vector<Signals> &model, bool swings)
     {
@@ -3166,25 +3179,12 @@ namespace rectify::diagnosis
       // had 2.72 units left in the strain and 1.07 in the outlet pressure;
       // the sentence named the first signal above 3 % of its swing, the
       // outlet pressure, which a no-flow record hardly swings)
-      std::string where;
-      double      worst = -1;
       for (std::size_t r = 0; r < runs.size(); ++r)
-        {
-          result.remaining.push_back(residuals_in_noise_units(runs[r].run, result.after[r], runs[r].setup.frequency_Hz,
-                                                              runs[r].swings, runs[r].scales, runs[r].n_skip));
-          if (result.remaining.back().empty())
-            continue;
-          const auto &L = result.remaining.back().front();
-          if (L.noise_units > worst)
-            {
-              worst = L.noise_units;
-              where = L.description + (runs.size() > 1 ? " (run " + runs[r].run.source + ")" : "");
-              result.largest_residual_after = {{"run", runs[r].run.source},
-                                               {"signal", L.signal},
-                                               {"noise_units", L.noise_units},
-                                               {"description", L.description}};
-            }
-        }
+        result.remaining.push_back(residuals_in_noise_units(runs[r].run, result.after[r], runs[r].setup.frequency_Hz,
+                                                            runs[r].swings, runs[r].scales, runs[r].n_skip));
+      std::string where;
+      if (const auto [r, most] = most_remaining(result.remaining); most)
+        where = most->description + (runs.size() > 1 ? " (run " + runs[r].run.source + ")" : "");
       const std::string named_effect = result.rounds.front().effect;
       char              buf[512];
       if (named_effect != "none" && after <= floor_units)
@@ -3260,6 +3260,12 @@ namespace rectify::diagnosis
     const auto &first = r.rounds.front();
     json        parameters = json::object();
     json        rounds     = json::array();
+    json        largest; // the verdict's "where"
+    if (const auto [k, most] = most_remaining(r.remaining); most && k < runs.size())
+      largest = {{"run", runs[k].run.source},
+                 {"signal", most->signal},
+                 {"noise_units", most->noise_units},
+                 {"description", most->description}};
     for (const auto &rr : r.rounds)
       {
         json p = json::object();
@@ -3453,7 +3459,7 @@ namespace rectify::diagnosis
             {"residual_shrink", shrink},
             {"verdict", r.verdict},
             {"verdict_sentence", r.verdict_sentence},
-            {"largest_residual_after", r.largest_residual_after},
+            {"largest_residual_after", largest},
             {"absorbed_by_baseline", absorbed},
             {"explained_fraction", r.explained_fraction},
             {"residual_baseline_fit", r.residual_baseline},

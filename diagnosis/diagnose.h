@@ -343,11 +343,9 @@ namespace rectify::diagnosis
     std::string               verdict;
     std::string               verdict_sentence;
     double                    explained_fraction = 0; ///< of the gap above the noise left by the baseline fit
-    /// Where the final model leaves the most (the verdict's "where"): the
-    /// run's file, the signal, its residual in noise units (from the run's
-    /// settling on) and its description (residuals_in_noise_units).
-    nlohmann::json            largest_residual_after;
-    /// Per run, what the final model leaves in each signal, the most first.
+    /// Per run, what the final model leaves in each signal, in noise units
+    /// from the run's settling on, the most first (residuals_in_noise_units);
+    /// the largest of them is the verdict's "where".
     std::vector<std::vector<SignalResidual>> remaining;
     double                    residual_baseline  = 0; ///< overall, the baseline fit (none), noise units
     /// sqrt(n / independent values of the compared band): how much larger a
