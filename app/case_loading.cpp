@@ -1,5 +1,6 @@
 #include "app/case_loading.h"
 
+#include "diagnosis/sensors.h"
 #include "mesher/parameters.h"
 #include "stiffness_solver/parameters.h"
 #include "stokes_solver/parameters.h"
@@ -24,6 +25,7 @@ namespace rectify::app
     (void)stiffness::StiffnessParameters::from_case(file);
     (void)mesher::MeshParameters::from_case(file);
     (void)stokes::FlowParameters::from_case(file);
+    (void)diagnosis::SensorLimits::from_case(file);
     file.check_all_keys_known();
   }
 } // namespace rectify::app

@@ -16,6 +16,7 @@
 #include <Eigen/Dense>
 
 #include "common/case_file.h"
+#include "diagnosis/sensors.h"
 #include "diagnosis/uncertainty.h"
 
 namespace rectify::diagnosis
@@ -3158,10 +3159,39 @@ namespace rectify::diagnosis
         if (rr.effect == "none")
           break;
       }
-    result.final_parameters = base;
-    result.after            = current;
-    result.residual_before  = pooled_norms(runs, result.before, false);
-    result.residual_after   = pooled_norms(runs, result.after, false);
+    result.final_parameters     = base;
+    result.after                = current;
+    result.residual_before      = pooled_norms(runs, result.before, false);
+    result.residual_after_ideal = pooled_norms(runs, result.after, false);
+    // the sensors' lags, fitted to the final model (and, for the verdict's
+    // comparison, to the baseline fit on its own): what a record's
+    // transducers do to it is no part of the pump's physics
+    if (!options.sensor_lowest_bandwidth_Hz.empty())
+      {
+        const auto began   = Clock::now();
+        result.sensor_lags = calibrate_sensor_lags(runs, result.after, options.sensor_lowest_bandwidth_Hz);
+        if (!baseline_prediction.empty())
+          (void)calibrate_sensor_lags(runs, baseline_prediction, options.sensor_lowest_bandwidth_Hz);
+        if (options.progress)
+          {
+            std::string line = "  sensor lags fitted to the final model:";
+            char        buf[200];
+            for (const auto &l : result.sensor_lags)
+              {
+                if (std::isinf(l.fitted_Hz))
+                  std::snprintf(buf, sizeof buf, " %s ideal (%.3g noise units);", l.signal.c_str(), l.residual_ideal);
+                else
+                  std::snprintf(buf, sizeof buf, " %s %.3g kHz%s (%.3g -> %.3g noise units; held out %.3g -> %.3g%s);",
+                                l.signal.c_str(), 1e-3 * l.fitted_Hz, l.at_bound ? ", its lowest" : "",
+                                l.residual_ideal, l.residual_lagged, l.heldout_ideal, l.heldout_lagged,
+                                l.kept ? "" : ": not kept");
+                line += buf;
+              }
+            std::snprintf(buf, sizeof buf, " %.2f s", seconds_since(began));
+            options.progress(line + buf);
+          }
+      }
+    result.residual_after = pooled_norms(runs, result.after, false);
     result.baseline_sd_factor = std::sqrt(1.0 / std::max(mean_band_fraction(runs), 1e-12));
     // The verdict, honestly: how much of the gap above the noise that the
     // baseline fit leaves does the named effect close, and what is left.
@@ -3227,6 +3257,14 @@ namespace rectify::diagnosis
                         after, floor_units, where.c_str());
         }
       result.verdict_sentence = buf;
+      if (std::any_of(result.sensor_lags.begin(), result.sensor_lags.end(),
+                      [](const SensorLag &l) { return !std::isinf(l.bandwidth_Hz); }))
+        {
+          std::snprintf(buf, sizeof buf,
+                        " (the model seen through the sensors' fitted lags; with ideal sensors %.3g noise units)",
+                        result.residual_after_ideal.at("overall"));
+          result.verdict_sentence += buf;
+        }
       // Nothing named, but the calibrated baseline moved a quantity a
       // candidate shares with it (the high side's compliance: a longer
       // oil column or a soft seal) beyond what the case holds: say that
@@ -3443,6 +3481,19 @@ namespace rectify::diagnosis
                                }()},
                               {"sentences", r.localisation[i].sentences},
                               {"numbers", r.localisation[i].numbers}});
+    nlohmann::json sensors = nlohmann::json::array();
+    const auto     hz      = [](double f) { return std::isinf(f) ? nlohmann::json() : nlohmann::json(f); }; // inf: null
+    for (const auto &l : r.sensor_lags)
+      sensors.push_back({{"signal", l.signal},
+                         {"bandwidth_Hz", hz(l.bandwidth_Hz)},
+                         {"fitted_bandwidth_Hz", hz(l.fitted_Hz)},
+                         {"kept", l.kept},
+                         {"lowest_bandwidth_Hz", l.lowest_Hz},
+                         {"at_lowest", l.at_bound},
+                         {"training_residual_ideal", l.residual_ideal},
+                         {"training_residual_lagged", l.residual_lagged},
+                         {"heldout_residual_ideal", l.heldout_ideal},
+                         {"heldout_residual_lagged", l.heldout_lagged}});
     double shrink = 0;
     if (r.residual_before.at("overall") > 0)
       shrink = 1.0 - r.residual_after.at("overall") / r.residual_before.at("overall");
@@ -3456,6 +3507,8 @@ namespace rectify::diagnosis
             {"decision", first.decision},
             {"residual_before", r.residual_before},
             {"residual_after", r.residual_after},
+            {"residual_after_ideal_sensors", r.residual_after_ideal},
+            {"sensor_lags", sensors},
             {"residual_shrink", shrink},
             {"verdict", r.verdict},
             {"verdict_sentence", r.verdict_sentence},
@@ -3484,6 +3537,12 @@ namespace rectify::diagnosis
                            "model's response to the drive's noise), per signal over every run; overall: RMS "
                            "over the signals. About 1 when the model explains the data to within its noise"},
               {"residual_before_fraction_of_swing", "the same residual over the measured signal's RMS about its mean"},
+              {"sensor_lags",
+               "each signal's sensor as a first-order lag (-3 dB bandwidth; null: ideal), fitted between the "
+               "case's [sensors] lowest bandwidth and an ideal sensor to the final model on the training samples "
+               "(fitted_bandwidth_Hz), one per signal for every run, after everything else was decided, and kept "
+               "(bandwidth_Hz) where the held-out samples fit at least as well with it; residual_after and the "
+               "verdict count the model through the kept lags, residual_after_ideal_sensors without them"},
               {"largest_residual_after",
                "where the final model leaves the most, the verdict's \"where\": the run and signal with the "
                "largest residual in noise units (from the run's settling on), and how that residual lies (its "

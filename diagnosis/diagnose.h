@@ -36,6 +36,7 @@
 #include <cmath>
 #include <filesystem>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -123,6 +124,11 @@ namespace rectify::diagnosis
     /// training cycle. A single record of the study's length (16 cycles,
     /// 12 of them training) is compared whole.
     double              compared_cycles    = 32;
+    /// Per measured signal: its sensor's lowest bandwidth [Hz]. Once the
+    /// model is chosen, each such signal's lag is fitted between that and
+    /// an ideal sensor (sensors.h) and the residual reported with it.
+    /// Empty: ideal sensors.
+    std::map<std::string, double> sensor_lowest_bandwidth_Hz;
     std::vector<std::string> effects;              ///< candidates; empty: the whole library
     unsigned            threads = 0;               ///< 0: all cores
     int                 rounds  = 1;               ///< 2: look for a second effect
@@ -325,6 +331,24 @@ namespace rectify::diagnosis
     double      case_value = 0, fitted = 0;
   };
 
+  /// A signal's sensor lag as a diagnosis fitted it (sensors.h).
+  struct SensorLag
+  {
+    std::string signal;
+    double      lowest_Hz    = 0;                                        ///< the case's bound
+    double      fitted_Hz    = std::numeric_limits<double>::infinity(); ///< the training fit's; inf: ideal
+    bool        at_bound     = false;                                    ///< at the lowest allowed
+    /// fitted_Hz where it also fits the held-out samples at least as well
+    /// as an ideal sensor (or there are none), else ideal (inf): applied
+    double      bandwidth_Hz = std::numeric_limits<double>::infinity();
+    bool        kept         = true; ///< false: the held-out samples fit worse with the fitted lag
+    /// the signal's training RMS residual (noise units, every run) with an
+    /// ideal sensor and with the fitted lag (fitted_Hz)
+    double residual_ideal = 0, residual_lagged = 0;
+    /// the same over the held-out samples, which the lag's fit did not see (0: none)
+    double heldout_ideal = 0, heldout_lagged = 0;
+  };
+
   struct DiagnosisResult
   {
     std::vector<RoundResult> rounds;
@@ -347,6 +371,12 @@ namespace rectify::diagnosis
     /// from the run's settling on, the most first (residuals_in_noise_units);
     /// the largest of them is the verdict's "where".
     std::vector<std::vector<SignalResidual>> remaining;
+    /// Each signal's sensor lag, fitted to the final model and applied to
+    /// `after` (calibrate_sensor_lags, sensors.h); empty: ideal sensors
+    /// (DiagnoseOptions::sensor_lowest_bandwidth_Hz empty).
+    std::vector<SensorLag>    sensor_lags;
+    /// residual_after with ideal sensors (equal where none is fitted)
+    std::map<std::string, double> residual_after_ideal;
     double                    residual_baseline  = 0; ///< overall, the baseline fit (none), noise units
     /// sqrt(n / independent values of the compared band): how much larger a
     /// baseline parameter's standard error (samples counted as independent,

@@ -686,13 +686,35 @@ TEST(Diagnosis, SynthThenDiagnoseNamesAHiddenLeakAndFindsNothingInCleanData)
             std::string::npos)
     << s["left_out_tried_at_the_named_fit"];
   EXPECT_LT(s["residual_after"]["overall"].get<double>(), 1.0);
+  // the sensors' lags (the reference case's [sensors]), fitted to the final
+  // model: the model's own record passed no sensor, so none takes up more
+  // than 2 % of a signal's residual, and the residual after is not above
+  // the one with ideal sensors
+  ASSERT_EQ(s["sensor_lags"].size(), s["residual_after"].size() - 1) << s["sensor_lags"]; // less "overall"
+  for (const auto &l : s["sensor_lags"])
+    {
+      const double ideal = l["training_residual_ideal"].get<double>(), lagged = l["training_residual_lagged"];
+      EXPECT_LE(lagged, ideal) << l;
+      EXPECT_GT(lagged, 0.98 * ideal) << l;
+      EXPECT_EQ(l["lowest_bandwidth_Hz"].get<double>(), l["signal"].get<std::string>().ends_with("_Pa") ? 2000 : 5000)
+        << l;
+    }
+  EXPECT_LE(s["residual_after"]["overall"].get<double>(), s["residual_after_ideal_sensors"]["overall"].get<double>());
+  {
+    std::ifstream      report(dir / "d-leak" / "report.md");
+    const std::string  text((std::istreambuf_iterator<char>(report)), std::istreambuf_iterator<char>());
+    EXPECT_NE(text.find("## The sensors' lags"), std::string::npos);
+  }
 
-  r = rectify_cli("diagnose --data " + (dir / "clean" / "data.csv").string() + candidates + "--out " +
+  r = rectify_cli("diagnose --data " + (dir / "clean" / "data.csv").string() + candidates + "--ideal-sensors --out " +
                   (dir / "d-clean").string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const auto c = nlohmann::json::parse(std::ifstream(dir / "d-clean" / "summary.json"));
   EXPECT_EQ(c["effect"], "none") << c["decision"];
   EXPECT_NE(c["decision"].get<std::string>().find("no significant missing effect"), std::string::npos);
+  // --ideal-sensors: no lag fitted, the residual after as the model gives it
+  EXPECT_TRUE(c["sensor_lags"].empty()) << c["sensor_lags"];
+  EXPECT_EQ(c["residual_after"], c["residual_after_ideal_sensors"]);
 }
 
 TEST(Diagnosis, BadDataAndBadOptionsStopBeforeWritingAnything)
