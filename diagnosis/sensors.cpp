@@ -61,6 +61,16 @@ namespace rectify::diagnosis
 
   namespace
   {
+    /// A model's signal through the lag at the record's times: the whole
+    /// record, or its first samples (a model simulated over part of it).
+    std::vector<double> lagged(const std::vector<double> &record_times, const std::vector<double> &values,
+                               double bandwidth_Hz)
+    {
+      if (values.size() >= record_times.size())
+        return first_order_lag(record_times, values, bandwidth_Hz); // (longer: first_order_lag refuses)
+      return first_order_lag({record_times.begin(), record_times.begin() + values.size()}, values, bandwidth_Hz);
+    }
+
     /// A signal's training residual, summed over the runs, with the lag
     /// of delay tau (0: ideal), in squared noise units, and its count.
     struct SignalFit
@@ -80,7 +90,7 @@ namespace rectify::diagnosis
             if (it == model[r].end() || !runs[r].run.has(signal))
               continue;
             const auto &rc = runs[r];
-            const auto  y  = tau > 0 ? first_order_lag(rc.run.time_s, it->second, 1.0 / (2 * std::numbers::pi * tau)) :
+            const auto  y  = tau > 0 ? lagged(rc.run.time_s, it->second, 1.0 / (2 * std::numbers::pi * tau)) :
                                        it->second;
             const auto &d     = rc.run.signal(signal);
             const double scale = rc.scales.at(signal);
@@ -174,7 +184,7 @@ namespace rectify::diagnosis
         if (lag.kept && tau > 0)
           for (std::size_t r = 0; r < runs.size(); ++r)
             if (const auto it = model[r].find(signal); it != model[r].end())
-              it->second = first_order_lag(runs[r].run.time_s, it->second, lag.bandwidth_Hz);
+              it->second = lagged(runs[r].run.time_s, it->second, lag.bandwidth_Hz);
         out.push_back(lag);
       }
     return out;

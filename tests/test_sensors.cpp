@@ -172,6 +172,18 @@ TEST(Sensors, EachSignalsLagIsFoundOnceForEveryRunAndHeldAtItsLowest)
   EXPECT_TRUE(std::isinf(dropped[0].bandwidth_Hz));
   EXPECT_EQ(once_model[0]["chamber_pressure_Pa"], me["chamber_pressure_Pa"]);
 
+  // a model simulated over the first part of a record only: fitted over
+  // what it covers (no held-out samples: kept), its length kept
+  Signals part = ma;
+  for (auto &[name, v] : part)
+    v.resize(v.size() * 2 / 3);
+  std::vector<Signals> partial{part};
+  const auto           short_fit = calibrate_sensor_lags({a}, partial, {{"chamber_pressure_Pa", 2000}});
+  ASSERT_EQ(short_fit.size(), 1u);
+  EXPECT_NEAR(short_fit[0].fitted_Hz, 6000, 200);
+  EXPECT_TRUE(short_fit[0].kept);
+  EXPECT_EQ(partial[0]["chamber_pressure_Pa"].size(), part["chamber_pressure_Pa"].size());
+
   // a signal without a bound stays ideal and is not touched
   std::vector<Signals> untouched{ma};
   EXPECT_TRUE(calibrate_sensor_lags({a}, untouched, {}).empty());
