@@ -544,7 +544,7 @@ namespace rectify::app
             for (const auto &l : result.sensor_lags)
               md += "| " + l.signal + " | " +
                     (std::isinf(l.fitted_Hz) ? std::string("ideal") :
-                                               sci(1e-3 * l.fitted_Hz) + (l.at_bound ? " (its lowest)" : "")) +
+                                               sci(1e-3 * l.fitted_Hz) + (l.at_lowest() ? " (its lowest)" : "")) +
                     " | " + sci(1e-3 * l.lowest_Hz) + " | " + sci(l.residual_ideal) + " | " + sci(l.residual_lagged) +
                     " | " + sci(l.heldout_ideal) + " | " + sci(l.heldout_lagged) + " | " + (l.kept ? "yes" : "no") +
                     " |\n";

@@ -3182,7 +3182,7 @@ namespace rectify::diagnosis
                   std::snprintf(buf, sizeof buf, " %s ideal (%.3g noise units);", l.signal.c_str(), l.residual_ideal);
                 else
                   std::snprintf(buf, sizeof buf, " %s %.3g kHz%s (%.3g -> %.3g noise units; held out %.3g -> %.3g%s);",
-                                l.signal.c_str(), 1e-3 * l.fitted_Hz, l.at_bound ? ", its lowest" : "",
+                                l.signal.c_str(), 1e-3 * l.fitted_Hz, l.at_lowest() ? ", its lowest" : "",
                                 l.residual_ideal, l.residual_lagged, l.heldout_ideal, l.heldout_lagged,
                                 l.kept ? "" : ": not kept");
                 line += buf;
@@ -3258,7 +3258,7 @@ namespace rectify::diagnosis
         }
       result.verdict_sentence = buf;
       if (std::any_of(result.sensor_lags.begin(), result.sensor_lags.end(),
-                      [](const SensorLag &l) { return !std::isinf(l.bandwidth_Hz); }))
+                      [](const SensorLag &l) { return !std::isinf(l.applied_Hz()); }))
         {
           std::snprintf(buf, sizeof buf,
                         " (the model seen through the sensors' fitted lags; with ideal sensors %.3g noise units)",
@@ -3485,11 +3485,11 @@ namespace rectify::diagnosis
     const auto     hz      = [](double f) { return std::isinf(f) ? nlohmann::json() : nlohmann::json(f); }; // inf: null
     for (const auto &l : r.sensor_lags)
       sensors.push_back({{"signal", l.signal},
-                         {"bandwidth_Hz", hz(l.bandwidth_Hz)},
+                         {"bandwidth_Hz", hz(l.applied_Hz())},
                          {"fitted_bandwidth_Hz", hz(l.fitted_Hz)},
                          {"kept", l.kept},
                          {"lowest_bandwidth_Hz", l.lowest_Hz},
-                         {"at_lowest", l.at_bound},
+                         {"at_lowest", l.at_lowest()},
                          {"training_residual_ideal", l.residual_ideal},
                          {"training_residual_lagged", l.residual_lagged},
                          {"heldout_residual_ideal", l.heldout_ideal},

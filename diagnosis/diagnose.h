@@ -337,16 +337,19 @@ namespace rectify::diagnosis
     std::string signal;
     double      lowest_Hz    = 0;                                        ///< the case's bound
     double      fitted_Hz    = std::numeric_limits<double>::infinity(); ///< the training fit's; inf: ideal
-    bool        at_bound     = false;                                    ///< at the lowest allowed
-    /// fitted_Hz where it also fits the held-out samples at least as well
-    /// as an ideal sensor (or there are none), else ideal (inf): applied
-    double      bandwidth_Hz = std::numeric_limits<double>::infinity();
     bool        kept         = true; ///< false: the held-out samples fit worse with the fitted lag
     /// the signal's training RMS residual (noise units, every run) with an
     /// ideal sensor and with the fitted lag (fitted_Hz)
     double residual_ideal = 0, residual_lagged = 0;
     /// the same over the held-out samples, which the lag's fit did not see (0: none)
     double heldout_ideal = 0, heldout_lagged = 0;
+
+    /// The bandwidth applied: fitted_Hz where kept (the held-out samples
+    /// fit at least as well with it as with an ideal sensor, or there are
+    /// none), else ideal (inf).
+    double applied_Hz() const { return kept ? fitted_Hz : std::numeric_limits<double>::infinity(); }
+    /// The fit stopped at the lowest bandwidth allowed.
+    bool at_lowest() const { return fitted_Hz <= lowest_Hz / (1 - 1e-3); }
   };
 
   struct DiagnosisResult

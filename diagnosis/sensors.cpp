@@ -167,7 +167,6 @@ namespace rectify::diagnosis
         lag.signal          = signal;
         lag.lowest_Hz       = lowest;
         lag.fitted_Hz       = tau > 0 ? 1.0 / (2.0 * std::numbers::pi * tau) : std::numeric_limits<double>::infinity();
-        lag.at_bound        = tau >= tau_max * (1 - 1e-3);
         lag.residual_ideal  = std::sqrt(ideal / static_cast<double>(n));
         lag.residual_lagged = std::sqrt(f_tau / static_cast<double>(n));
         const auto [h_ideal, h_n] = fit.squared(0.0, true);
@@ -179,12 +178,11 @@ namespace rectify::diagnosis
         // a lag that the held-out samples do not confirm has taken up what
         // does not repeat (a valve's flutter: none-3's outlet valve on the
         // bench, 3.34 -> 2.93 noise units in training, 0.79 -> 1.02 held out)
-        lag.kept         = !(lag.heldout_lagged > lag.heldout_ideal);
-        lag.bandwidth_Hz = lag.kept ? lag.fitted_Hz : std::numeric_limits<double>::infinity();
+        lag.kept = !(lag.heldout_lagged > lag.heldout_ideal);
         if (lag.kept && tau > 0)
           for (std::size_t r = 0; r < runs.size(); ++r)
             if (const auto it = model[r].find(signal); it != model[r].end())
-              it->second = lagged(runs[r].run.time_s, it->second, lag.bandwidth_Hz);
+              it->second = lagged(runs[r].run.time_s, it->second, lag.applied_Hz());
         out.push_back(lag);
       }
     return out;

@@ -123,9 +123,9 @@ TEST(Sensors, EachSignalsLagIsFoundOnceForEveryRunAndHeldAtItsLowest)
   // the lag turns the 150 Hz fundamental by 1.4 deg, 2.5 % of its amplitude:
   // 12 noise units without it, the noise with it, its bandwidth within 2 %
   EXPECT_NEAR(p.fitted_Hz, 6000, 120);
-  EXPECT_FALSE(p.at_bound);
+  EXPECT_FALSE(p.at_lowest());
   EXPECT_TRUE(p.kept);
-  EXPECT_EQ(p.bandwidth_Hz, p.fitted_Hz);
+  EXPECT_EQ(p.applied_Hz(), p.fitted_Hz);
   EXPECT_GT(p.residual_ideal, 8.0);
   EXPECT_NEAR(p.residual_lagged, 1.0, 0.05);
   // and on the last quarter of each run, which the fit did not see
@@ -151,7 +151,7 @@ TEST(Sensors, EachSignalsLagIsFoundOnceForEveryRunAndHeldAtItsLowest)
   std::vector<Signals> slow_model{mc};
   const auto held = calibrate_sensor_lags(slow, slow_model, {{"chamber_pressure_Pa", 2000}});
   ASSERT_EQ(held.size(), 1u);
-  EXPECT_TRUE(held[0].at_bound);
+  EXPECT_TRUE(held[0].at_lowest());
   EXPECT_NEAR(held[0].fitted_Hz, 2000, 1);
   EXPECT_TRUE(held[0].kept);
   EXPECT_LT(held[0].residual_lagged, 0.6 * held[0].residual_ideal);
@@ -169,7 +169,7 @@ TEST(Sensors, EachSignalsLagIsFoundOnceForEveryRunAndHeldAtItsLowest)
   EXPECT_LT(dropped[0].residual_lagged, 0.2 * dropped[0].residual_ideal);
   EXPECT_GT(dropped[0].heldout_lagged, 5 * dropped[0].heldout_ideal);
   EXPECT_FALSE(dropped[0].kept);
-  EXPECT_TRUE(std::isinf(dropped[0].bandwidth_Hz));
+  EXPECT_TRUE(std::isinf(dropped[0].applied_Hz()));
   EXPECT_EQ(once_model[0]["chamber_pressure_Pa"], me["chamber_pressure_Pa"]);
 
   // a model simulated over the first part of a record only: fitted over
