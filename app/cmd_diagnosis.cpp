@@ -438,12 +438,14 @@ namespace rectify::app
                     sci(b.upper) + " | " + sci(b.sd_unit) + " | " + (b.identifiable ? "yes" : "no: held") + " | " +
                     b.note + " |\n";
           }
-        md += "\n## Where the model disagrees with the data (before)\n\n";
-        for (std::size_t r = 0; r < runs.size(); ++r)
+        md += "\n## Where the model disagrees with the data (before)\n\nThe case's model as given: each signal's "
+              "residual in units of its noise (from the run's settling on), the most first; then how it lies, in "
+              "the terms of its swing.\n\n";
+        for (std::size_t r = 0; r < result.remaining_before.size() && r < runs.size(); ++r)
           {
             md += "Run `" + runs[r].run.source + "` (" + sci(runs[r].setup.frequency_Hz) + " Hz):\n\n";
-            for (const auto &s : result.localisation[r].sentences)
-              md += "- " + s + "\n";
+            for (const auto &s : result.remaining_before[r])
+              md += "- " + s.description + "\n";
             md += "\n";
           }
         for (const auto &s : result.trend_sentences)
@@ -575,9 +577,9 @@ namespace rectify::app
       for (const auto &rc : result.runs)
         std::printf("  %s: start %s, %zu outlier(s) replaced\n", rc.run.source.c_str(),
                     diagnosis::to_string(rc.start).c_str(), rc.outliers.size());
-      for (const auto &rc : result.localisation)
-        for (const auto &s : rc.sentences)
-          std::printf("  before: %s\n", s.c_str());
+      for (const auto &run : result.remaining_before)
+        for (const auto &s : run)
+          std::printf("  before: %s\n", s.description.c_str());
       std::printf("residual (RMS in units of each signal's noise, all signals): %.4g before, %.4g after (%.1f %% smaller)\n",
                   result.residual_before.at("overall"), result.residual_after.at("overall"),
                   100 * (1 - result.residual_after.at("overall") / result.residual_before.at("overall")));

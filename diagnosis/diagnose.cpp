@@ -3210,8 +3210,14 @@ namespace rectify::diagnosis
       // the sentence named the first signal above 3 % of its swing, the
       // outlet pressure, which a no-flow record hardly swings)
       for (std::size_t r = 0; r < runs.size(); ++r)
-        result.remaining.push_back(residuals_in_noise_units(runs[r].run, result.after[r], runs[r].setup.frequency_Hz,
-                                                            runs[r].swings, runs[r].scales, runs[r].n_skip));
+        {
+          result.remaining.push_back(residuals_in_noise_units(runs[r].run, result.after[r],
+                                                              runs[r].setup.frequency_Hz, runs[r].swings,
+                                                              runs[r].scales, runs[r].n_skip));
+          result.remaining_before.push_back(residuals_in_noise_units(runs[r].run, result.before[r],
+                                                                     runs[r].setup.frequency_Hz, runs[r].swings,
+                                                                     runs[r].scales, runs[r].n_skip));
+        }
       std::string where;
       if (const auto [r, most] = most_remaining(result.remaining); most)
         where = most->description + (runs.size() > 1 ? " (run " + runs[r].run.source + ")" : "");
@@ -3298,12 +3304,16 @@ namespace rectify::diagnosis
     const auto &first = r.rounds.front();
     json        parameters = json::object();
     json        rounds     = json::array();
-    json        largest; // the verdict's "where"
-    if (const auto [k, most] = most_remaining(r.remaining); most && k < runs.size())
-      largest = {{"run", runs[k].run.source},
-                 {"signal", most->signal},
-                 {"noise_units", most->noise_units},
-                 {"description", most->description}};
+    const auto  largest_of = [&](const std::vector<std::vector<SignalResidual>> &remaining) {
+      json largest;
+      if (const auto [k, most] = most_remaining(remaining); most && k < runs.size())
+        largest = {{"run", runs[k].run.source},
+                   {"signal", most->signal},
+                   {"noise_units", most->noise_units},
+                   {"description", most->description}};
+      return largest;
+    };
+    const json largest = largest_of(r.remaining); // the verdict's "where"
     for (const auto &rr : r.rounds)
       {
         json p = json::object();
@@ -3513,6 +3523,7 @@ namespace rectify::diagnosis
             {"verdict", r.verdict},
             {"verdict_sentence", r.verdict_sentence},
             {"largest_residual_after", largest},
+            {"largest_residual_before", largest_of(r.remaining_before)},
             {"absorbed_by_baseline", absorbed},
             {"explained_fraction", r.explained_fraction},
             {"residual_baseline_fit", r.residual_baseline},
@@ -3547,6 +3558,9 @@ namespace rectify::diagnosis
                "where the final model leaves the most, the verdict's \"where\": the run and signal with the "
                "largest residual in noise units (from the run's settling on), and how that residual lies (its "
                "share of the swing, cycle half, mean offset, harmonic, trend over the record)"},
+              {"largest_residual_before",
+               "the same for the case's model as given, before any fit (residual_before's largest), in the same "
+               "units and window"},
               {"bic", "n ln(SSR/n) + k ln n on the training samples (first part of each run; for the "
                       "candidates, the first compared_cycles_per_run cycles of it after the settling)"},
               {"compared_cycles_per_run",

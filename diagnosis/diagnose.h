@@ -374,6 +374,9 @@ namespace rectify::diagnosis
     /// from the run's settling on, the most first (residuals_in_noise_units);
     /// the largest of them is the verdict's "where".
     std::vector<std::vector<SignalResidual>> remaining;
+    /// The same for the case's model as given (`before`), in the same
+    /// units, window and order: the report's "before".
+    std::vector<std::vector<SignalResidual>> remaining_before;
     /// Each signal's sensor lag, fitted to the final model and applied to
     /// `after` (calibrate_sensor_lags, sensors.h); empty: ideal sensors
     /// (DiagnoseOptions::sensor_lowest_bandwidth_Hz empty).

@@ -967,6 +967,34 @@ TEST(ForeignData, TheVerdictSaysBeyondTheLibraryWhenNothingFits)
        at = report.find("\n- ", at + 1))
     ++listed;
   EXPECT_EQ(listed, s["residual_after"].size() - 1) << report.substr(after); // every signal, not "overall"
+  // and before any fit, the case's model as given, in the same units and
+  // order (until the forty-eighth stop: the signals above 3 % of their
+  // swing, alphabetically)
+  std::string most_before;
+  for (const auto &[name, v] : s["residual_before"].items())
+    if (name != "overall" &&
+        (most_before.empty() || v.get<double>() > s["residual_before"][most_before].get<double>()))
+      most_before = name;
+  const auto &largest_before = s["largest_residual_before"];
+  EXPECT_EQ(largest_before["signal"], most_before) << largest_before.dump();
+  EXPECT_DOUBLE_EQ(largest_before["noise_units"].get<double>(), s["residual_before"][most_before].get<double>());
+  const auto before = report.find("## Where the model disagrees with the data (before)");
+  ASSERT_NE(before, std::string::npos) << report;
+  const auto end_before = report.find("\n## ", before + 1);
+  const auto first_before = report.find("\n- ", before);
+  ASSERT_LT(first_before, end_before) << report.substr(before);
+  EXPECT_EQ(report.compare(first_before + 3, largest_before["description"].get<std::string>().size(),
+                           largest_before["description"].get<std::string>()),
+            0)
+    << report.substr(before, end_before - before);
+  std::vector<double> units; // each listed signal's noise units, as the line gives them
+  for (auto at = first_before; at < end_before; at = report.find("\n- ", at + 1))
+    {
+      const auto comma = report.find(", ", at);
+      units.push_back(std::stod(report.substr(comma + 2)));
+    }
+  EXPECT_EQ(units.size(), s["residual_before"].size() - 1) << report.substr(before, end_before - before);
+  EXPECT_TRUE(std::is_sorted(units.rbegin(), units.rend())) << report.substr(before, end_before - before);
 }
 
 // The state a record shows at its first sample (--start record): pressures
