@@ -57,7 +57,7 @@ expect '| parameter within 20 % where the hidden effect was named | 6/7 (86 %) |
 expect '| false positives on records with no effect, at most 10 % | 1/4 (25 %) | no |'
 expect '| outside the library: the verdict says "beyond the library", at least 80 % | 1/2 (50 %) | no |'
 expect '| residual after <= 2 noise units where the hidden effect was named | 6/7 (86 %) | no |'
-expect '| time per record (not the benchmark: diagnose --threads 1, records run side by side) | median 180 s, max 250 s | see docs/benchmarks.md |'
+expect '| time per record (not the benchmark: diagnose --threads 1, 2 record(s) at once) | median 180 s, max 250 s | see docs/benchmarks.md |'
 expect '| orifice_flow-3 | orifice_flow -> none | explained -> beyond the library | - | 5 -> 5 |'
 expect '| none-1 | none | beyond the library | - | 3.4 -> 2.2 |'
 expect '2 of 16 records in both moved.'
@@ -76,4 +76,14 @@ md=$out/met/study.md
 expect '| hidden effect named in >= 80 % of its records, per effect | 1 of 1 effects: entrained_air 1/1 | yes |'
 expect '| false positives on records with no effect, at most 10 % | 0/1 (0 %) | yes |'
 expect '| outside the library: the verdict says "beyond the library", at least 80 % | 1/1 (100 %) | yes |'
+# a --compare that names no study is refused before anything is run or written
+for bad in "$out/nowhere" "$out/all-met.csv.txt"; do
+  [ "$bad" = "$out/all-met.csv.txt" ] && printf 'a,b\n1,2\n' > "$bad"
+  rm -f "$out/met/study.md"
+  if "$py" "$src/bench/foreign/study.py" --out "$out/met" --report-only --compare "$bad" 2> "$out/err"; then
+    echo "--compare $bad was accepted"; exit 1
+  fi
+  grep -qF -- "--compare" "$out/err" || { echo "no clear error for --compare $bad:"; cat "$out/err"; exit 1; }
+  [ ! -e "$out/met/study.md" ] || { echo "study.md written despite --compare $bad"; exit 1; }
+done
 echo "study report: targets and comparison as written"

@@ -217,7 +217,7 @@ def seal_reach(args, rows):
     return md
 
 
-def targets(rows, threads):
+def targets(rows, threads, jobs):
     """The issue's targets (issue 17) measured on the rows: the report's
     lines. A rate is met at 80 % (naming per effect, "beyond the library")
     or at most 10 % (false positives); the parameter and the residual are
@@ -253,7 +253,7 @@ def targets(rows, threads):
     md.append(f"| residual after <= 2 noise units where the hidden effect was named | {m} | {ok} |")
     times = sorted(float(r["wall_time_s"]) for r in rows)
     if times:
-        md.append(f"| time per record (not the benchmark: diagnose --threads {threads}, records run side by side) | "
+        md.append(f"| time per record (not the benchmark: diagnose --threads {threads}, {jobs} record(s) at once) | "
                   f"median {times[len(times) // 2]:.0f} s, max {times[-1]:.0f} s | see docs/benchmarks.md |")
     return md
 
@@ -341,7 +341,7 @@ def report(args):
                   f"{r['true_value'][:9]} | "
                   f"{str(r['fitted_value'])[:9]} | {err} | {float(r['residual_baseline'] or 0):.3g} -> "
                   f"{float(r['residual_after']):.3g} | {r['outliers_true']} / {r['outliers_found']} |")
-    goals = targets(rows, args.threads)
+    goals = targets(rows, args.threads, args.jobs)
     md += goals + seal_reach(args, rows)
     if args.compare:
         md += compare(rows, args.compare)
@@ -373,6 +373,14 @@ def main():
     ap.add_argument("--report-only", action="store_true")
     ap.add_argument("--compare", default=None, help="another study's folder or cases.csv: the report lists what moved")
     args = ap.parse_args()
+    if args.compare:  # checked now, not after hours of records
+        other = os.path.join(args.compare, "cases.csv") if os.path.isdir(args.compare) else args.compare
+        if not os.path.isfile(other):
+            sys.exit(f"study.py: --compare {args.compare}: no study there (no file {other})")
+        with open(other) as fh:
+            missing = {"case", "named", "verdict", "rel_error", "residual_after"} - set(csv.DictReader(fh).fieldnames or [])
+        if missing:
+            sys.exit(f"study.py: --compare {other}: not a study's cases.csv (no column {', '.join(sorted(missing))})")
     os.makedirs(args.out, exist_ok=True)
     if args.report_only:
         report(args)
