@@ -10,6 +10,7 @@
 #include "common/case_file.h"
 #include "common/io.h"
 #include "diagnosis/fourier.h"
+#include "diagnosis/golden_section.h"
 
 namespace rectify::diagnosis
 {
@@ -84,28 +85,8 @@ namespace rectify::diagnosis
       return (A * c - b).squaredNorm();
     };
     const double half = 0.5 / duration; // Hz: half a cycle over the record
-    double       a = coarse - half, d = coarse + half;
-    const double g = 0.5 * (std::sqrt(5.0) - 1.0);
-    double       x1 = d - g * (d - a), x2 = a + g * (d - a);
-    double       f1 = misfit(x1), f2 = misfit(x2);
-    for (int i = 0; i < 40; ++i)
-      if (f1 < f2)
-        {
-          d  = x2;
-          x2 = x1;
-          f2 = f1;
-          x1 = d - g * (d - a);
-          f1 = misfit(x1);
-        }
-      else
-        {
-          a  = x1;
-          x1 = x2;
-          f1 = f2;
-          x2 = a + g * (d - a);
-          f2 = misfit(x2);
-        }
-    return 0.5 * (a + d);
+    const auto   end  = golden_section(misfit, coarse - half, coarse + half, 40);
+    return 0.5 * (end.a + end.b);
   }
 
   MeasuredRun MeasuredRun::parse(const std::string &text, const std::string &source, double frequency_Hz,

@@ -6,6 +6,8 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "diagnosis/golden_section.h"
+
 namespace rectify::diagnosis
 {
   SensorLimits SensorLimits::from_case(const CaseFile &file)
@@ -136,28 +138,10 @@ namespace rectify::diagnosis
               best = k;
           }
         double       tau = tau_max * best / points, f_tau = value[best];
-        double       a = tau_max * std::max(best - 1, 0) / points, b = tau_max * std::min(best + 1, points) / points;
-        const double g = (std::sqrt(5.0) - 1.0) / 2.0;
-        double       c = b - g * (b - a), d = a + g * (b - a);
-        double       fc = fit.squared(c).first, fd = fit.squared(d).first;
-        for (int it = 0; it < 40 && b - a > 1e-4 * tau_max; ++it)
-          if (fc < fd)
-            {
-              b  = d;
-              d  = c;
-              fd = fc;
-              c  = b - g * (b - a);
-              fc = fit.squared(c).first;
-            }
-          else
-            {
-              a  = c;
-              c  = d;
-              fc = fd;
-              d  = a + g * (b - a);
-              fd = fit.squared(d).first;
-            }
-        for (const auto &[t, f] : {std::pair{c, fc}, std::pair{d, fd}})
+        const auto end = golden_section([&](double t) { return fit.squared(t).first; },
+                                        tau_max * std::max(best - 1, 0) / points,
+                                        tau_max * std::min(best + 1, points) / points, 40, 1e-4 * tau_max);
+        for (const auto &[t, f] : {std::pair{end.c, end.fc}, std::pair{end.d, end.fd}})
           if (f < f_tau)
             {
               tau   = t;
