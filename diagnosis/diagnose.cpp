@@ -3465,6 +3465,15 @@ namespace rectify::diagnosis
       absorbed.push_back({{"effect", a.effect}, {"quantity", a.quantity}, {"meaning", a.meaning},
                           {"case_value", a.case_value}, {"fitted", a.fitted},
                           {"as_the_effect", a.fitted - a.case_value}});
+    // run i's list, the most first, as the report gives it (empty where
+    // there is none: a diagnosis that stopped before its verdict)
+    const auto in_noise_units = [](const std::vector<std::vector<SignalResidual>> &all, std::size_t i) {
+      json out = json::array();
+      if (i < all.size())
+        for (const auto &x : all[i])
+          out.push_back({{"signal", x.signal}, {"noise_units", x.noise_units}, {"description", x.description}});
+      return out;
+    };
     json localisation = json::array();
     for (std::size_t i = 0; i < runs.size(); ++i)
       localisation.push_back({{"run", runs[i].run.source},
@@ -3490,6 +3499,8 @@ namespace rectify::diagnosis
                                  return o;
                                }()},
                               {"sentences", r.localisation[i].sentences},
+                              {"before_in_noise_units", in_noise_units(r.remaining_before, i)},
+                              {"after_in_noise_units", in_noise_units(r.remaining, i)},
                               {"numbers", r.localisation[i].numbers}});
     nlohmann::json sensors = nlohmann::json::array();
     const auto     hz      = [](double f) { return std::isinf(f) ? nlohmann::json() : nlohmann::json(f); }; // inf: null
@@ -3561,6 +3572,12 @@ namespace rectify::diagnosis
               {"largest_residual_before",
                "the same for the case's model as given, before any fit (residual_before's largest), in the same "
                "units and window"},
+              {"localisation",
+               "per run: before_in_noise_units and after_in_noise_units, every signal's residual in noise units "
+               "from the run's settling on with its description, the most first (the report's lists; their "
+               "firsts over the runs are largest_residual_before and _after); sentences, the case's model as "
+               "given described signal by signal where its residual exceeds 3 % of the signal's swing; numbers, "
+               "each signal's harmonics, cycle halves and trend"},
               {"bic", "n ln(SSR/n) + k ln n on the training samples (first part of each run; for the "
                       "candidates, the first compared_cycles_per_run cycles of it after the settling)"},
               {"compared_cycles_per_run",

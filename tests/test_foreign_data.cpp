@@ -995,6 +995,27 @@ TEST(ForeignData, TheVerdictSaysBeyondTheLibraryWhenNothingFits)
     }
   EXPECT_EQ(units.size(), s["residual_before"].size() - 1) << report.substr(before, end_before - before);
   EXPECT_TRUE(std::is_sorted(units.rbegin(), units.rend())) << report.substr(before, end_before - before);
+  // summary.json gives both lists per run, as the report does (one run here)
+  ASSERT_EQ(s["localisation"].size(), 1u);
+  const auto &run = s["localisation"][0];
+  for (const char *which : {"before_in_noise_units", "after_in_noise_units"})
+    {
+      const auto &list = run[which];
+      const auto &all  = s[std::string(which) == "before_in_noise_units" ? "residual_before" : "residual_after"];
+      const auto &top  = std::string(which) == "before_in_noise_units" ? largest_before : largest;
+      ASSERT_EQ(list.size(), all.size() - 1) << which << ": " << list.dump(1);
+      EXPECT_EQ(list[0]["signal"], top["signal"]) << which;
+      EXPECT_EQ(list[0]["description"], top["description"]) << which;
+      for (std::size_t k = 0; k < list.size(); ++k)
+        {
+          const auto name = list[k]["signal"].get<std::string>();
+          EXPECT_DOUBLE_EQ(list[k]["noise_units"].get<double>(), all[name].get<double>()) << which << " " << name;
+          if (k > 0)
+            {
+              EXPECT_GE(list[k - 1]["noise_units"].get<double>(), list[k]["noise_units"].get<double>()) << which;
+            }
+        }
+    }
 }
 
 // The state a record shows at its first sample (--start record): pressures
