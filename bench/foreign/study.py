@@ -258,12 +258,16 @@ def targets(rows, threads, jobs):
     return md
 
 
+def study_csv(path):
+    """A study's cases.csv: the file itself, or the one in its folder."""
+    return os.path.join(path, "cases.csv") if os.path.isdir(path) else path
+
+
 def compare(rows, old_path):
     """The records whose outcome differs from another study's (its cases.csv
     or its folder): named effect, verdict, parameter error by more than a
     point, residual after by more than 0.05 noise units. The report's lines."""
-    if os.path.isdir(old_path):
-        old_path = os.path.join(old_path, "cases.csv")
+    old_path = study_csv(old_path)
     old = {r["case"]: r for r in csv.DictReader(open(old_path))}
     err = lambda r: float(r["rel_error"]) if r.get("rel_error") not in ("", None) else None  # noqa: E731
     show = lambda e: "-" if e is None else f"{100 * e:.1f} %"  # noqa: E731
@@ -374,7 +378,7 @@ def main():
     ap.add_argument("--compare", default=None, help="another study's folder or cases.csv: the report lists what moved")
     args = ap.parse_args()
     if args.compare:  # checked now, not after hours of records
-        other = os.path.join(args.compare, "cases.csv") if os.path.isdir(args.compare) else args.compare
+        other = study_csv(args.compare)
         if not os.path.isfile(other):
             sys.exit(f"study.py: --compare {args.compare}: no study there (no file {other})")
         with open(other) as fh:
