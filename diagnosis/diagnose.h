@@ -300,6 +300,14 @@ namespace rectify::diagnosis
       std::string                    reason;  ///< why not, where not
       double none_bic = 0, none_rms_train = 0; ///< none's fit without it (the table's none is with it where on)
     } set_by_effect;
+    /// none refitted from the best candidate's baseline before any was
+    /// judged (empty effect: no candidate beat none by the BIC threshold)
+    struct NoneRestart
+    {
+      std::string effect;                ///< whose baseline it started from
+      double      bic_before = 0, bic_after = 0, rms_train_before = 0, rms_train_after = 0;
+      bool        kept = false;          ///< it fitted better and stood as none's fit
+    } none_restart;
     double                       confidence = 0; ///< BIC weight of the named candidate
     std::string                  decision;       ///< the reasoning in words
     std::vector<CandidateResult> candidates;

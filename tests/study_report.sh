@@ -86,4 +86,18 @@ for bad in "$out/nowhere" "$out/all-met.csv.txt"; do
   grep -qF -- "--compare" "$out/err" || { echo "no clear error for --compare $bad:"; cat "$out/err"; exit 1; }
   [ ! -e "$out/met/study.md" ] || { echo "study.md written despite --compare $bad"; exit 1; }
 done
+# the plan: each index of every kind before the next index, so a study
+# stopped part-way has as many records of each kind, give or take one; an
+# extension (--first) numbers on from where the study left off
+(cd "$src/bench/foreign" && "$py" - <<'PY'
+import types, study
+a = types.SimpleNamespace(first=0, per_effect=2, none=1, beyond=1, effects=["orifice_flow", "coil_dynamics"])
+got = [c[0] for c in study.plan(a)]
+beyond = [f"{e}-0" for e in study.bench.BEYOND_LIBRARY]
+want = ["orifice_flow-0", "coil_dynamics-0", "none-0"] + beyond + ["orifice_flow-1", "coil_dynamics-1"]
+assert got == want, got
+a.first = 5
+assert [c[0] for c in study.plan(a)][:3] == ["orifice_flow-5", "coil_dynamics-5", "none-5"]
+PY
+) || { echo "study.py's plan is not in index order"; exit 1; }
 echo "study report: targets and comparison as written"

@@ -49,16 +49,17 @@ lock = threading.Lock()
 
 
 def plan(args):
+    """The records by index first, kind second (E-0 of every kind, then E-1, ...): a study stopped part-way
+    has as many records of each kind, give or take one."""
     cases = []
     first = args.first
-    for e in args.effects:
-        for k in range(first, first + args.per_effect):
-            cases.append((f"{e}-{k}", e))
-    for k in range(first, first + args.none):
-        cases.append((f"none-{k}", "none"))
-    for e in bench.BEYOND_LIBRARY:
-        for k in range(first, first + args.beyond):
-            cases.append((f"{e}-{k}", e))
+    for k in range(first, first + max(args.per_effect, args.none, args.beyond)):
+        if k < first + args.per_effect:
+            cases += [(f"{e}-{k}", e) for e in args.effects]
+        if k < first + args.none:
+            cases.append((f"none-{k}", "none"))
+        if k < first + args.beyond:
+            cases += [(f"{e}-{k}", e) for e in bench.BEYOND_LIBRARY]
     return cases
 
 
