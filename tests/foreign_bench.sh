@@ -213,6 +213,8 @@ if near is not None and near.get("named"):  # the table's none is the fit with t
     none = near["none_without"]
 elif sets is not None and sets["named"] and any(b["on"] for b in sets["at_none"]):  # the same for a hose
     none = sets["none_without"]
+if restart is not None:  # the notes were made against none's fit from the case's values, before any refit
+    none = {"rms_train": restart["rms_train_from_the_case"]}
 gap = lambda r: math.sqrt(max(r * r - 1, 0))
 cut = [c for c in s["candidates"] if c.get("search", "").startswith("not restarted")]
 for c in cut:
