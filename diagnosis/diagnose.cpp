@@ -2484,7 +2484,9 @@ namespace rectify::diagnosis
         // candidate is judged, none is refitted from where the best one
         // left the [uncertain] parameters and the gain, and stands where it
         // fits better: every candidate is then judged against it. A real
-        // effect's baseline refits no better without it.
+        // effect still beats it: none from the effect's baseline often fits
+        // better than from the case's (in the study's rerun, 11 named
+        // records, by up to 394 in BIC), but each named effect stood.
         if (!order.empty() && !fitted[0].failed && fitted[0].bic - fitted[order[0]].bic > options.bic_threshold)
           {
             const auto        began = Clock::now();
