@@ -12,6 +12,8 @@
 # Right-named in all: 7, parameter within 20 %: 6 of 7, residual <= 2: 6 of 7.
 # The second study moves two records (a naming, a residual) and one by less
 # than the thresholds (0.5 point, 0.03 units), which must not be listed.
+# A study assembled from another's rows (no records on disk) still reports,
+# naming the seal records it cannot place against the oil column's reach.
 # Usage: study_report.sh SOURCE_DIR SCRATCH
 set -euo pipefail
 src=$1 out=$2
@@ -76,6 +78,18 @@ md=$out/met/study.md
 expect '| hidden effect named in >= 80 % of its records, per effect | 1 of 1 effects: entrained_air 1/1 | yes |'
 expect '| false positives on records with no effect, at most 10 % | 0/1 (0 %) | yes |'
 expect '| outside the library: the verdict says "beyond the library", at least 80 % | 1/1 (100 %) | yes |'
+# a study assembled from another's rows (its cases.csv copied, the records
+# not on disk): the report is still written, and a seal record whose files
+# are not there is named and left out of the seal's reach, not a traceback
+mkdir -p "$out/rows"
+{ cat "$out/all-met.csv"; row outlet_compliance-0 outlet_compliance none 0 "no missing effect" "" 0.9 300; } \
+  > "$out/rows/cases.csv"
+"$py" "$src/bench/foreign/study.py" --out "$out/rows" --report-only > /dev/null 2> "$out/rows-err" ||
+  { echo "the report of a study assembled from rows failed:"; cat "$out/rows-err"; exit 1; }
+md=$out/rows/study.md
+expect '| outlet_compliance-0 | not on disk | | | | none | | |'
+expect "Not counted: 1 seal record(s) whose record or diagnosis is not in $out/rows (outlet_compliance-0): their rows came from another study's cases.csv."
+expect 'Beyond the reach: named 0/0. Within it: named or reported as taken up by the baseline 0/0. Of the bench'"'"'s seal rigs 31.6 % lie within the reach at the case'"'"'s piston area (3.3e-14 m^3/Pa; 100000 draws).'
 # a --compare that names no study is refused before anything is run or written
 for bad in "$out/nowhere" "$out/all-met.csv.txt"; do
   [ "$bad" = "$out/all-met.csv.txt" ] && printf 'a,b\n1,2\n' > "$bad"

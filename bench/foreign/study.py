@@ -184,10 +184,15 @@ def seal_reach(args, rows):
           "| case | bench's seal | bench's high side (oil + seal) | the column's reach | within reach | named | "
           "seal as fitted or as taken up | error |", "|---|" + "---|" * 7]
     tally = {True: [0, 0], False: [0, 0]}  # within reach -> [records, reported right]
+    absent = []  # rows of a study assembled from another's cases.csv: no record or diagnosis here
     for r in seals:
         d = os.path.join(args.out, r["case"])
-        truth = json.load(open(os.path.join(d, "record", "truth.json")))
-        s = json.load(open(os.path.join(d, "diagnosis", "summary.json")))
+        files = [os.path.join(d, "record", "truth.json"), os.path.join(d, "diagnosis", "summary.json")]
+        if not all(os.path.isfile(f) for f in files):
+            absent.append(r["case"])
+            md.append(f"| {r['case']} | not on disk | | | | {r['named']} | | |")
+            continue
+        truth, s = (json.load(open(f)) for f in files)
         high = bench_high_side(truth)
         # the piston area as the calibrated baseline had it: held at the case's, or free to its bound
         area = case["cylinder"]["piston_area_m2"]
@@ -215,6 +220,9 @@ def seal_reach(args, rows):
            f"taken up by the baseline {tally[True][1]}/{tally[True][0]}. Of the bench's seal rigs "
            f"{100 * share_within(held):.1f} % lie within the reach at the case's piston area ({held:.3g} m^3/Pa; "
            "100000 draws)."]
+    if absent:
+        md += ["", f"Not counted: {len(absent)} seal record(s) whose record or diagnosis is not in {args.out} "
+               f"({', '.join(absent)}): their rows came from another study's cases.csv."]
     return md
 
 
