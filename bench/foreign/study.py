@@ -222,7 +222,7 @@ def seal_reach(args, rows):
            "100000 draws)."]
     if absent:
         md += ["", f"Not counted: {len(absent)} seal record(s) whose record or diagnosis is not in {args.out} "
-               f"({', '.join(absent)}): their rows came from another study's cases.csv."]
+               f"({', '.join(absent)}): rows without their files here, as in a study started from another's cases.csv."]
     return md
 
 
