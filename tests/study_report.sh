@@ -91,6 +91,24 @@ expect '| outlet_compliance-0 | not on disk | | | | none | | |'
 expect "Not counted: 1 seal record(s) whose record or diagnosis is not in $out/rows (outlet_compliance-0): rows without their files here, as in a study started from another's cases.csv."
 grep -qF 'Beyond the reach: named 0/0. Within it: named or reported as taken up by the baseline 0/0.' "$md" ||
   { echo "a seal record not on disk was counted against the reach"; exit 1; }
+# a seal record on disk whose truth.json is not JSON, or whose summary.json
+# lacks a key the report reads: a clear error naming the file, no study.md
+for broken in truth summary; do
+  rm -rf "$out/broken" && mkdir -p "$out/broken/outlet_compliance-0/record" "$out/broken/outlet_compliance-0/diagnosis"
+  cp "$out/rows/cases.csv" "$out/broken/cases.csv"
+  truth=$out/broken/outlet_compliance-0/record/truth.json summary=$out/broken/outlet_compliance-0/diagnosis/summary.json
+  echo '{"value": 1e-14, "baseline": {"A_po": 0.000129, "wet_l": 0.0254}}' > "$truth"
+  echo '{"effect": "none", "baseline_fit": [{"parameter": "cylinder.piston_area_m2"}]}' > "$summary"
+  [ $broken = truth ] && echo '{"value": 1e-14, "baseline": ' > "$truth"
+  [ $broken = summary ] && bad=$summary key=baseline_fit/0/identifiable || bad=$truth key="not valid JSON"
+  if "$py" "$src/bench/foreign/study.py" --out "$out/broken" --report-only > /dev/null 2> "$out/broken-err"; then
+    echo "a report with a broken $broken file was written"; exit 1
+  fi
+  grep -qF "study.py: $bad: " "$out/broken-err" && grep -qF "$key" "$out/broken-err" ||
+    { echo "no clear error for a broken $broken file:"; cat "$out/broken-err"; exit 1; }
+  ! grep -q Traceback "$out/broken-err" || { echo "a traceback for a broken $broken file"; exit 1; }
+  [ ! -e "$out/broken/study.md" ] || { echo "study.md written despite a broken $broken file"; exit 1; }
+done
 # a --compare that names no study is refused before anything is run or written
 for bad in "$out/nowhere" "$out/all-met.csv.txt"; do
   [ "$bad" = "$out/all-met.csv.txt" ] && printf 'a,b\n1,2\n' > "$bad"

@@ -48,6 +48,35 @@ COLUMNS = ["case", "truth", "scenario", "frequency_Hz", "start", "named", "corre
 lock = threading.Lock()
 
 
+class StudyError(Exception):
+    """A file the study reads is missing, not JSON, or lacks a key it needs: the message names the file."""
+
+
+def read_json(path):
+    try:
+        with open(path) as fh:
+            doc = json.load(fh)
+    except json.JSONDecodeError as e:
+        raise StudyError(f"{path}: not valid JSON: {e.msg} (line {e.lineno}, column {e.colno})") from None
+    except OSError as e:
+        raise StudyError(f"{path}: cannot be read: {e.strerror}") from None
+    if not isinstance(doc, dict):
+        raise StudyError(f"{path}: not a JSON object")
+    return doc
+
+
+def field(doc, path, *keys):
+    """doc[keys[0]][keys[1]]... of the JSON file `path`, or a StudyError naming the file and the key."""
+    v = doc
+    for k in keys:
+        try:
+            v = v[k]
+        except (KeyError, IndexError, TypeError):
+            raise StudyError(f"{path}: no {'/'.join(str(k) for k in keys)} (a record's truth.json or a "
+                             "diagnosis's summary.json as written by make_record.py and rectify diagnose)") from None
+    return v
+
+
 def plan(args):
     """The records by index first, kind second (E-0 of every kind, then E-1, ...): a study stopped part-way
     has as many records of each kind, give or take one."""
@@ -82,7 +111,8 @@ def run_case(args, name, effect):
             if args.currents_pp:
                 cmd += ["--current-pp", str(args.currents_pp[k])]
             subprocess.run(cmd, check=True, capture_output=True)
-    truth = json.load(open(os.path.join(rec, "truth.json")))
+    truth_path = os.path.join(rec, "truth.json")
+    truth = read_json(truth_path)
     diag = os.path.join(d, "diagnosis")
     began = time.time()
     if not os.path.exists(os.path.join(diag, "summary.json")):
@@ -94,7 +124,14 @@ def run_case(args, name, effect):
         if r.returncode != 0:
             raise RuntimeError(f"{name}: diagnose failed ({r.returncode}): {r.stderr[-2000:]}")
     wall = time.time() - began
-    s = json.load(open(os.path.join(diag, "summary.json")))
+    summary_path = os.path.join(diag, "summary.json")
+    s = read_json(summary_path)
+    for k in ("effect", "verdict", "residual_after", "localisation"):
+        field(s, summary_path, k)
+    field(s, summary_path, "residual_after", "overall")
+    field(s, summary_path, "localisation", 0)
+    for k in ("scenario", "frequency_Hz", "start"):
+        field(truth, truth_path, k)
     named = s["effect"]
     right = LIBRARY.get(effect, ((),))[0]
     if effect == "none":
@@ -192,22 +229,26 @@ def seal_reach(args, rows):
             absent.append(r["case"])
             md.append(f"| {r['case']} | not on disk | | | | {r['named']} | | |")
             continue
-        truth, s = (json.load(open(f)) for f in files)
+        truth, s = (read_json(f) for f in files)
+        field(truth, files[0], "value")
+        for k in ("A_po", "wet_l"):
+            field(truth, files[0], "baseline", k)
         high = bench_high_side(truth)
         # the piston area as the calibrated baseline had it: held at the case's, or free to its bound
         area = case["cylinder"]["piston_area_m2"]
-        for q in s.get("baseline_fit") or []:
-            if q["parameter"] == "cylinder.piston_area_m2" and q["identifiable"]:
-                area = q["bounds"][1]
+        for i, _ in enumerate(s.get("baseline_fit") or []):
+            if field(s, files[1], "baseline_fit", i, "parameter") == "cylinder.piston_area_m2" and \
+                    field(s, files[1], "baseline_fit", i, "identifiable"):
+                area = field(s, files[1], "baseline_fit", i, "bounds", 1)
         reach = area * share * length_max / beta
         within = high <= reach
         seal, how = None, "-"
         if r["named"] == "outlet_compliance" and r["fitted_value"]:
             seal, how = float(r["fitted_value"]), "named"
         else:
-            for a in s.get("absorbed_by_baseline") or []:
-                if a["effect"] == "outlet_compliance":
-                    seal, how = a["as_the_effect"], "taken up"
+            for i, _ in enumerate(s.get("absorbed_by_baseline") or []):
+                if field(s, files[1], "absorbed_by_baseline", i, "effect") == "outlet_compliance":
+                    seal, how = field(s, files[1], "absorbed_by_baseline", i, "as_the_effect"), "taken up"
         err = f"{100 * (seal / truth['value'] - 1):+.1f} %" if seal else "-"
         # right: named beyond the reach; within it, named or reported as taken up
         right = how == "named" or (within and how == "taken up")
@@ -396,7 +437,10 @@ def main():
             sys.exit(f"study.py: --compare {other}: not a study's cases.csv (no column {', '.join(sorted(missing))})")
     os.makedirs(args.out, exist_ok=True)
     if args.report_only:
-        report(args)
+        try:
+            report(args)
+        except StudyError as e:  # nothing written: study.md is replaced only once whole
+            sys.exit(f"study.py: {e}")
         return
     path = os.path.join(args.out, "cases.csv")
     if os.path.exists(path):  # written by an older study.py: its rows under today's columns
@@ -432,7 +476,10 @@ def main():
 
     with concurrent.futures.ThreadPoolExecutor(args.jobs) as ex:
         list(ex.map(work, todo))
-    report(args)
+    try:
+        report(args)
+    except StudyError as e:
+        sys.exit(f"study.py: {e}")
 
 
 if __name__ == "__main__":
