@@ -1,5 +1,7 @@
 #include "system/integrator.h"
 
+#include "system/serial_vector_ops.h"
+
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
@@ -342,6 +344,11 @@ namespace rectify::system
     m.atol = N_VNew_Serial(n, m.context);
     if (!m.y || !m.atol)
       throw std::runtime_error("CVODE: cannot allocate vectors");
+    if (!options.library_vector_ops)
+      { // before CVodeInit, which clones its own vectors from y
+        use_optimised_serial_ops(m.y);
+        use_optimised_serial_ops(m.atol);
+      }
     std::copy(y0.begin(), y0.end(), N_VGetArrayPointer(m.y));
     std::copy(options.absolute_tolerances.begin(), options.absolute_tolerances.end(),
               N_VGetArrayPointer(m.atol));
@@ -378,6 +385,8 @@ namespace rectify::system
             m.callbacks.weights = N_VNew_Serial(n, m.context);
             if (!m.callbacks.weights)
               throw std::runtime_error("CVODE: cannot allocate vectors");
+            if (!options.library_vector_ops)
+              use_optimised_serial_ops(m.callbacks.weights);
           }
         check(CVodeSetLinSysFn(m.cvode, linear_system_callback), "CVodeSetLinSysFn");
       }

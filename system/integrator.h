@@ -55,6 +55,11 @@ namespace rectify::system
     /// column). The same matrix to the last bit, in more work (the tests
     /// compare the two).
     bool                cvode_linear_system = false;
+    /// true: SUNDIALS's own serial vector operations, as Debian builds them
+    /// (unoptimised); false: the same operations compiled here
+    /// (system/serial_vector_ops.h). The same run to the last bit, slower
+    /// (the tests compare the two).
+    bool                library_vector_ops = false;
     long                max_steps_between_outputs   = 1000000;
     bool                quiet = false; ///< no CVODE messages on stderr (failures still throw)
     /// Highest BDF order CVODE may use (0: its own, 5). Orders 1-2 are

@@ -113,19 +113,21 @@ namespace rectify::test_support
   /// A run of `model` from rest to t_end with the Newton matrix formed by
   /// CVODE's own routines (`cvode_linear_system`: column-by-column
   /// difference quotients or the analytic Jacobian) or by the integrator
-  /// (coloured quotients): its end state and counters.
+  /// (coloured quotients), with SUNDIALS's own vector operations or the
+  /// optimised ones (`library_vector_ops`): its end state and counters.
   struct DifferenceRun
   {
     std::vector<double>     state;
     system::IntegratorStats stats;
   };
   inline DifferenceRun run_linear_system(system::Model &model, const system::RunOptions &run, bool cvode_linear_system,
-                                         bool finite_differences, double t_end)
+                                         bool finite_differences, double t_end, bool library_vector_ops = false)
   {
     model.reset();
     auto o                       = system::integrator_options(model, run);
     o.finite_difference_jacobian = finite_differences;
     o.cvode_linear_system        = cvode_linear_system;
+    o.library_vector_ops         = library_vector_ops;
     o.quiet                      = true;
     o.max_steps_between_outputs  = 100000000;
     system::Integrator integrator(model, 0.0, model.initial_state(), o);

@@ -6,18 +6,21 @@
 #include <Eigen/Dense>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <random>
 #include <sstream>
+#include <sundials/sundials_context.h>
 #include <unistd.h>
 
 #include "common/case_file.h"
 #include "common/io.h"
 #include "tests/cli_helpers.h"
 #include "system/integrator.h"
+#include "system/serial_vector_ops.h"
 #include "model_helpers.h"
 #include "system/model.h"
 #include "system/reed.h"
@@ -89,6 +92,100 @@ namespace
     return o;
   }
 } // namespace
+
+TEST(Integrator, OptimisedVectorOperationsEqualTheLibrarysBitForBit)
+{
+  // Each replaced operation against SUNDIALS's own serial one on the same
+  // inputs: every special case of a x + b y (coefficients 1, -1, equal,
+  // opposite, 0, general), in place and not, vectors of odd and even
+  // lengths with values of every sign and size; and the reductions.
+  SUNContext context = nullptr;
+  ASSERT_EQ(SUNContext_Create(nullptr, &context), 0);
+  std::mt19937                           rng(17);
+  std::uniform_real_distribution<double> mantissa(-1.0, 1.0), exponent(-30.0, 30.0);
+  const auto bits_equal = [](N_Vector a, N_Vector b) {
+    return std::memcmp(N_VGetArrayPointer(a), N_VGetArrayPointer(b), N_VGetLength(a) * sizeof(double)) == 0;
+  };
+  const auto same = [](double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; };
+  const double coefficients[] = {1.0, -1.0, 0.0, 0.5, -0.5, 2.3, -2.3, 1e-7, 3.0 / 7.0};
+  int          compared       = 0;
+  for (sunindextype n : {1, 2, 3, 7, 16, 33})
+    {
+      // own[k] carries the optimised operations, lib[k] the library's; both hold the same values
+      N_Vector own[3], lib[3];
+      for (int k = 0; k < 3; ++k)
+        {
+          own[k] = N_VNew_Serial(n, context);
+          lib[k] = N_VNew_Serial(n, context);
+          use_optimised_serial_ops(own[k]);
+        }
+      const auto fill = [&]() {
+        for (int k = 0; k < 3; ++k)
+          for (sunindextype i = 0; i < n; ++i)
+            N_VGetArrayPointer(lib[k])[i] = N_VGetArrayPointer(own[k])[i] =
+              (i % 5 == 3 ? 1.0 : mantissa(rng)) * std::pow(10.0, exponent(rng) * (k == 2 ? 0.1 : 1.0));
+      };
+      for (double a : coefficients)
+        for (double b : coefficients)
+          for (int alias = 0; alias < 3; ++alias) // z separate, z == x, z == y
+            {
+              fill();
+              const int z = alias == 0 ? 2 : alias - 1;
+              own[0]->ops->nvlinearsum(a, own[0], b, own[1], own[z]);
+              N_VLinearSum_Serial(a, lib[0], b, lib[1], lib[z]);
+              for (int k = 0; k < 3; ++k)
+                EXPECT_TRUE(bits_equal(own[k], lib[k])) << "a x + b y, a = " << a << ", b = " << b << ", alias " << alias;
+              ++compared;
+            }
+      for (double c : coefficients)
+        for (bool in_place : {false, true})
+          {
+            fill();
+            own[0]->ops->nvscale(c, own[0], own[in_place ? 0 : 2]);
+            N_VScale_Serial(c, lib[0], lib[in_place ? 0 : 2]);
+            EXPECT_TRUE(bits_equal(own[in_place ? 0 : 2], lib[in_place ? 0 : 2])) << "scale " << c;
+            fill();
+            own[0]->ops->nvconst(c, own[2]);
+            N_VConst_Serial(c, lib[2]);
+            EXPECT_TRUE(bits_equal(own[2], lib[2])) << "const " << c;
+            fill();
+            own[0]->ops->nvaddconst(own[0], c, own[2]);
+            N_VAddConst_Serial(lib[0], c, lib[2]);
+            EXPECT_TRUE(bits_equal(own[2], lib[2])) << "add const " << c;
+          }
+      fill();
+      own[0]->ops->nvprod(own[0], own[1], own[2]);
+      N_VProd_Serial(lib[0], lib[1], lib[2]);
+      EXPECT_TRUE(bits_equal(own[2], lib[2])) << "product";
+      own[0]->ops->nvdiv(own[0], own[1], own[2]);
+      N_VDiv_Serial(lib[0], lib[1], lib[2]);
+      EXPECT_TRUE(bits_equal(own[2], lib[2])) << "quotient";
+      own[0]->ops->nvabs(own[0], own[2]);
+      N_VAbs_Serial(lib[0], lib[2]);
+      EXPECT_TRUE(bits_equal(own[2], lib[2])) << "abs";
+      own[0]->ops->nvinv(own[0], own[2]);
+      N_VInv_Serial(lib[0], lib[2]);
+      EXPECT_TRUE(bits_equal(own[2], lib[2])) << "inverse";
+      // reductions: the weights of CVODE's kind (1 / (rtol |y| + atol)) in own[2]
+      EXPECT_TRUE(same(own[0]->ops->nvwrmsnorm(own[0], own[2]), N_VWrmsNorm_Serial(lib[0], lib[2]))) << "n " << n;
+      EXPECT_TRUE(same(own[0]->ops->nvwsqrsumlocal(own[0], own[2]), N_VWSqrSumLocal_Serial(lib[0], lib[2])));
+      EXPECT_TRUE(same(own[0]->ops->nvdotprod(own[0], own[1]), N_VDotProd_Serial(lib[0], lib[1])));
+      EXPECT_TRUE(same(own[0]->ops->nvmaxnorm(own[0]), N_VMaxNorm_Serial(lib[0])));
+      EXPECT_TRUE(same(own[0]->ops->nvmin(own[0]), N_VMin_Serial(lib[0])));
+      // a clone (CVODE makes its vectors so) keeps the optimised operations
+      N_Vector clone = N_VClone(own[0]);
+      EXPECT_EQ(clone->ops->nvlinearsum, own[0]->ops->nvlinearsum);
+      EXPECT_NE(clone->ops->nvlinearsum, lib[0]->ops->nvlinearsum);
+      N_VDestroy(clone);
+      for (int k = 0; k < 3; ++k)
+        {
+          N_VDestroy(own[k]);
+          N_VDestroy(lib[k]);
+        }
+    }
+  EXPECT_EQ(compared, 6 * 9 * 9 * 3);
+  SUNContext_Free(&context);
+}
 
 TEST(Reed, RestsOnItsSeatWhileHeldClosedThenLiftsAndRingsAtItsDampedFrequency)
 {
