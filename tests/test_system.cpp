@@ -134,7 +134,8 @@ TEST(Integrator, OptimisedVectorOperationsEqualTheLibrarysBitForBit)
               own[0]->ops->nvlinearsum(a, own[0], b, own[1], own[z]);
               N_VLinearSum_Serial(a, lib[0], b, lib[1], lib[z]);
               for (int k = 0; k < 3; ++k)
-                EXPECT_TRUE(bits_equal(own[k], lib[k])) << "a x + b y, a = " << a << ", b = " << b << ", alias " << alias;
+                EXPECT_TRUE(bits_equal(own[k], lib[k]))
+                  << "a x + b y, a = " << a << ", b = " << b << ", alias " << alias;
               ++compared;
             }
       for (double c : coefficients)
