@@ -109,6 +109,38 @@ for broken in truth summary; do
   ! grep -q Traceback "$out/broken-err" || { echo "a traceback for a broken $broken file"; exit 1; }
   [ ! -e "$out/broken/study.md" ] || { echo "study.md written despite a broken $broken file"; exit 1; }
 done
+# a study's rows that are not what a study writes (a cases.csv copied in by
+# hand): a clear error naming the file, the line, the record, the column
+# and the value, no study.md; and the same for a --compare file
+for bad in "residual_after=abc:is not a number" "residual_after=nan:is NaN" "correct=2:not 0 or 1" \
+           "verdict=:no verdict"; do
+  spec=${bad%%:*} want=${bad#*:} col=${spec%%=*} val=${spec#*=}
+  rm -rf "$out/badrows" && mkdir -p "$out/badrows"
+  "$py" - "$out/all-met.csv" "$out/badrows/cases.csv" "$col" "$val" <<'PY'
+import csv, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+rows[1][sys.argv[3]] = sys.argv[4]  # the second record: line 3
+with open(sys.argv[2], "w", newline="") as fh:
+    w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+    w.writeheader()
+    w.writerows(rows)
+PY
+  if "$py" "$src/bench/foreign/study.py" --out "$out/badrows" --report-only > /dev/null 2> "$out/badrows-err"; then
+    echo "a study whose cases.csv has $spec was reported"; exit 1
+  fi
+  grep -qF "study.py: $out/badrows/cases.csv: line 3 (none-0): " "$out/badrows-err" && grep -qF "$want" "$out/badrows-err" ||
+    { echo "no clear error for $spec in cases.csv:"; cat "$out/badrows-err"; exit 1; }
+  ! grep -q Traceback "$out/badrows-err" || { echo "a traceback for $spec in cases.csv"; exit 1; }
+  [ ! -e "$out/badrows/study.md" ] || { echo "study.md written despite $spec in cases.csv"; exit 1; }
+done
+rm -f "$out/met/study.md"
+if "$py" "$src/bench/foreign/study.py" --out "$out/met" --report-only --compare "$out/badrows/cases.csv" \
+     > /dev/null 2> "$out/err"; then
+  echo "--compare with a broken row was accepted"; exit 1
+fi
+grep -qF -- "--compare $out/badrows/cases.csv: line 3 (none-0): no verdict" "$out/err" ||
+  { echo "no clear error for --compare with a broken row:"; cat "$out/err"; exit 1; }
+[ ! -e "$out/met/study.md" ] || { echo "study.md written despite --compare with a broken row"; exit 1; }
 # a --compare that names no study is refused before anything is run or written
 for bad in "$out/nowhere" "$out/all-met.csv.txt"; do
   [ "$bad" = "$out/all-met.csv.txt" ] && printf 'a,b\n1,2\n' > "$bad"

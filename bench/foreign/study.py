@@ -77,6 +77,43 @@ def field(doc, path, *keys):
     return v
 
 
+# a study's row: columns that must be filled, and those that are numbers where filled
+ROW_REQUIRED = ("case", "truth", "scenario", "named", "correct", "verdict", "residual_after", "wall_time_s",
+                "frequency_Hz")
+ROW_NUMBERS = ("frequency_Hz", "residual_baseline", "residual_after", "rel_error", "wall_time_s", "reported_sd",
+               "combined_error")
+
+
+def read_rows(path, required=ROW_REQUIRED):
+    """A study's cases.csv (its own, one copied in to finish it, or one to
+    --compare with) as rows, each checked: a StudyError names the file, the
+    line, the record, the column and the value of the first that is missing
+    or not a number (or NaN), or a `correct` that is not 0 or 1."""
+    try:
+        with open(path, newline="") as fh:
+            rows = list(csv.DictReader(fh))
+    except OSError as e:
+        raise StudyError(f"{path}: cannot be read: {e.strerror}") from None
+    for line, r in enumerate(rows, start=2):  # the header is line 1
+        where = f"{path}: line {line} ({r.get('case') or 'no case'})"
+        for k in required:
+            if not r.get(k):
+                raise StudyError(f"{where}: no {k}")
+        for k in ROW_NUMBERS:
+            v = r.get(k)
+            if v in ("", None):
+                continue
+            try:
+                x = float(v)
+            except ValueError:
+                raise StudyError(f"{where}: {k} = '{v}' is not a number") from None
+            if math.isnan(x):
+                raise StudyError(f"{where}: {k} is NaN")
+        if r.get("correct") not in (None, "", "0", "1"):
+            raise StudyError(f"{where}: correct = '{r['correct']}', not 0 or 1")
+    return rows
+
+
 def plan(args):
     """The records by index first, kind second (E-0 of every kind, then E-1, ...): a study stopped part-way
     has as many records of each kind, give or take one."""
@@ -318,7 +355,7 @@ def compare(rows, old_path):
     or its folder): named effect, verdict, parameter error by more than a
     point, residual after by more than 0.05 noise units. The report's lines."""
     old_path = study_csv(old_path)
-    old = {r["case"]: r for r in csv.DictReader(open(old_path))}
+    old = {r["case"]: r for r in read_rows(old_path, ("case", "named", "verdict", "residual_after"))}
     err = lambda r: float(r["rel_error"]) if r.get("rel_error") not in ("", None) else None  # noqa: E731
     show = lambda e: "-" if e is None else f"{100 * e:.1f} %"  # noqa: E731
     md = ["", f"Against {old_path} (records in both: what moved):", "",
@@ -344,7 +381,7 @@ def compare(rows, old_path):
 
 def report(args):
     path = os.path.join(args.out, "cases.csv")
-    rows = list(csv.DictReader(open(path))) if os.path.exists(path) else []
+    rows = read_rows(path) if os.path.exists(path) else []
     named_cols = sorted({r["named"] for r in rows} | {"none"})
     truths = [e for e in list(LIBRARY) + ["none"] + list(bench.BEYOND_LIBRARY) if any(r["truth"] == e for r in rows)]
     md = ["# Identification study on the independent bench (issue 17)", "",
@@ -435,6 +472,10 @@ def main():
             missing = {"case", "named", "verdict", "rel_error", "residual_after"} - set(csv.DictReader(fh).fieldnames or [])
         if missing:
             sys.exit(f"study.py: --compare {other}: not a study's cases.csv (no column {', '.join(sorted(missing))})")
+        try:
+            read_rows(other, ("case", "named", "verdict", "residual_after"))
+        except StudyError as e:
+            sys.exit(f"study.py: --compare {e}")
     os.makedirs(args.out, exist_ok=True)
     if args.report_only:
         try:
