@@ -128,7 +128,8 @@ PY
   if "$py" "$src/bench/foreign/study.py" --out "$out/badrows" --report-only > /dev/null 2> "$out/badrows-err"; then
     echo "a study whose cases.csv has $spec was reported"; exit 1
   fi
-  grep -qF "study.py: $out/badrows/cases.csv: line 3 (none-0): " "$out/badrows-err" && grep -qF "$want" "$out/badrows-err" ||
+  grep -qF "study.py: $out/badrows/cases.csv: line 3 (none-0): " "$out/badrows-err" &&
+    grep -qF "$want" "$out/badrows-err" ||
     { echo "no clear error for $spec in cases.csv:"; cat "$out/badrows-err"; exit 1; }
   ! grep -q Traceback "$out/badrows-err" || { echo "a traceback for $spec in cases.csv"; exit 1; }
   [ ! -e "$out/badrows/study.md" ] || { echo "study.md written despite $spec in cases.csv"; exit 1; }
