@@ -5,8 +5,9 @@
 // replacements compute what the library's do, operation for operation: the
 // same special cases of a x + b y (each rounds differently), the same
 // summation order in the norms (element-wise loops may be vectorised, which
-// changes no result; a sum is not reordered without -ffast-math, and no FMA
-// is emitted for the baseline x86-64 target). So an integration gives the
+// changes no result; a sum is not reordered without -ffast-math, and the file
+// is compiled with -ffp-contract=off, so no multiply-add is fused even on a
+// target that has FMA: system/CMakeLists.txt). So an integration gives the
 // same numbers to the last bit: tests/test_system.cpp compares each
 // operation against the library's own, tests/test_effects.cpp whole runs.
 #pragma once
