@@ -202,7 +202,7 @@ namespace rectify::diagnosis
         // the cycles' samples and one more, as the quotient's rounding falls
         // (dt is read off the time column): a window of N cycles of m
         // samples holds N m or N m + 1. Rounding it to N m exactly was tried
-        // (docs/diagnosis.md, "Long records screened"): the ringing search's
+        // (docs/diagnosis-history.md, "Long records screened"): the ringing search's
         // 3- and 6-cycle windows lost their sample, and the short hose's
         // line fit (tests/foreign_bench.sh line-short) fell into another basin
         const auto   n  = static_cast<std::size_t>(horizon_cycles / (rc.setup.frequency_Hz * dt)) + 1;
@@ -1135,7 +1135,7 @@ namespace rectify::diagnosis
       return {fc, "the case's [reed] second_mode_frequency_Hz"};
     // Every run, no-flow too: a one-mode reed left 4 noise units of white
     // noise on the bench's no-flow records with no hidden effect, where the
-    // same baseline with this mode left 1.6-2.0 (docs/diagnosis.md, "The
+    // same baseline with this mode left 1.6-2.0 (docs/diagnosis-history.md, "The
     // second mode in no-flow records").
     constexpr double uniform_cantilever = (4.6941 / 1.8751) * (4.6941 / 1.8751);
     return {uniform_cantilever * f1, "a uniform cantilever's, 6.267 x the first mode (" + f1_text +
@@ -1293,7 +1293,7 @@ namespace rectify::diagnosis
     // in this order of preference: a later one must fit 5 % better. The
     // high side at the first cycle's mean pressure only in no-flow runs,
     // where the high side is closed (in a loaded run it follows the load
-    // through the cycle): docs/diagnosis.md, "A line's ringing at the
+    // through the cycle): docs/diagnosis-history.md, "A line's ringing at the
     // record's first sample".
     std::vector<StartState> tried{StartState::rest, StartState::record, StartState::record_mean,
                                   StartState::steady, StartState::periodic};
@@ -2773,7 +2773,7 @@ namespace rectify::diagnosis
                   // is as large as what is left and biases the value, while
                   // the candidates are compared far above it, on the first
                   // cycle's window (measured there, the window moved which
-                  // basin the baseline's fit reached; docs/diagnosis.md,
+                  // basin the baseline's fit reached; docs/diagnosis-history.md,
                   // "The start's memory").
                   settle(named_ev.parameters(u), map, runs, options, cores);
                 }
@@ -2869,7 +2869,7 @@ namespace rectify::diagnosis
                   // A profile's side that fits clearly better than the fit
                   // (the valley curves: the fit stopped in a side basin)
                   // becomes the fit: refitted from there and profiled
-                  // again, at most max_profile_moves times (docs/diagnosis.md,
+                  // again, at most max_profile_moves times (docs/diagnosis-history.md,
                   // "A profile that finds a better fit")
                   std::string moves_words; // said before the standard errors
                   for (int move = 0;; ++move)
@@ -2923,7 +2923,7 @@ namespace rectify::diagnosis
                   // where that fits as well as the split (evidence within the
                   // naming's threshold); the effect's values over that
                   // parameter's declared range are reported beside it
-                  // (docs/diagnosis.md, "The seal held at the case's oil column").
+                  // (docs/diagnosis-history.md, "The seal held at the case's oil column").
                   const auto *comb = named_ev.effect ? named_ev.effect->combination() : nullptr;
                   if (comb && rr.combined && rr.combined->determined && rr.uncertainty.size() == 1 &&
                       !rr.uncertainty.front().determined)

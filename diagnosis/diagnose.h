@@ -508,7 +508,7 @@ namespace rectify::diagnosis
   /// Runs that stay further apart (two orbits) leave one cycle. An
   /// estimated start state is wrong in what the record does not show; its
   /// error fades as fast as the model forgets where it started
-  /// (docs/diagnosis.md, "The start's memory", "Runs that meet later").
+  /// (docs/diagnosis-history.md, "The start's memory", "Runs that meet later").
   void settle(const system::SystemParameters &base, const system::ValveMaps &map, std::vector<RunCase> &runs,
               const DiagnoseOptions &options, unsigned threads = 1);
 

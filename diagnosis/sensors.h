@@ -12,7 +12,7 @@
 // (one bandwidth per signal, shared by every run), and applies it. It needs
 // no run of the model: the lag acts on the model's output. Nothing the
 // diagnosis decides or fits depends on it; only the residual it reports
-// (docs/diagnosis.md, "The sensors' lags").
+// (docs/diagnosis-history.md, "The sensors' lags").
 #pragma once
 
 #include <map>

@@ -140,7 +140,7 @@ namespace rectify::system
     /// 2.3 % of a continuous line's; 6 sections put the second 4 % low,
     /// which a bench's hose showed; one section's lowest rings 34 % low.
     /// Not a length-based count: a fit of L or of the bore would jump
-    /// where the count changes (docs/diagnosis.md, "A distributed outlet
+    /// where the count changes (docs/diagnosis-history.md, "A distributed outlet
     /// line").
     long outlet_line_segments = 1;
     static LineParameters from_case(const CaseFile &file);

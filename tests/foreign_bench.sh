@@ -65,7 +65,7 @@
 # moves there (at least one move, each with evidence below -10) and the line
 # is named with L within 20 % (+2.2 % here) and at least half of the gap
 # closed (74 %; 2.9 noise units are left and the verdict says "partly
-# explained"; docs/diagnosis.md, "A profile that finds a better fit" and the
+# explained"; docs/diagnosis-history.md, "A profile that finds a better fit" and the
 # forty-first stop). The form used line_inertance-4 until the records' CPU
 # paths were pinned: made with OpenBLAS's AVX-512 kernels, its fit moved
 # from +63 % to +34 %; made on the AVX2 paths it stops at +80 % in a basin
@@ -80,7 +80,7 @@
 # within 20 %, at most 2 noise units left.
 # Made on a machine with AVX-512 its record differs from one made without
 # by 1e-5 of each signal's swing, and with the two best points the friction
-# was found from one and not the other (docs/diagnosis.md, "One start per
+# was found from one and not the other (docs/diagnosis-history.md, "One start per
 # valley"); records are now made on pinned CPU paths (cpu_paths.py).
 # Form `none-orbit`: the study extension's none-7 (no effect, no-flow at
 # 100 Hz from mid-operation; the bench's outlet valve opens 93 um every

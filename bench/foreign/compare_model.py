@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Run rectify's model on the rig of a bench record and compare the two
-(docs/diagnosis.md, "What decides a loaded record").
+(docs/diagnosis-history.md, "What decides a loaded record").
 
   /usr/bin/python3 bench/foreign/compare_model.py --record DIR --rectify build/bin/rectify --out OUT
       [--case cases/reference.toml] [--harmonics 4 10] [--rtol 1e-7]

@@ -5,7 +5,7 @@ CPU (Cooperlake on an AVX-512 EPYC, Haswell or Zen elsewhere), and NumPy its
 AVX-512 loops where the CPU has them. Each rounds differently: one seed made a
 record on a machine with AVX-512 that differed from the record made on one
 without it by up to 1e-5 of a signal's swing, a thousandth of the noise, and
-that was enough to turn a fit from one basin to another (docs/diagnosis.md,
+that was enough to turn a fit from one basin to another (docs/diagnosis-history.md,
 "One start per valley"; there the OpenBLAS kernel alone made the difference).
 Importing this module before NumPy pins both to what every AVX2 machine has:
 OpenBLAS on its Haswell kernels, NumPy's AVX-512 loops off. A machine without AVX2 and FMA keeps its

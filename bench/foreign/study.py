@@ -233,7 +233,7 @@ def share_within(reach, draws=100000, seed=1):
 def seal_reach(args, rows):
     """The seals against what the case's declared oil column can hold. A
     no-flow record tells the high side's compliance, the column's and the
-    seal's together (docs/diagnosis.md, "Five records per effect"): where the
+    seal's together (docs/diagnosis-history.md, "Five records per effect"): where the
     bench's sum lies within what the column reaches at its declared upper
     bound, the calibrated baseline can take the whole seal up as oil. The
     reach is the case's: its [uncertain] upper bound on

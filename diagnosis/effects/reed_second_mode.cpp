@@ -15,7 +15,7 @@ namespace rectify::diagnosis
       // 17 start points: the residual has narrow basins over the frequency
       // (the mode's ringing after each opening); from 9, a bench record's
       // 2053 Hz mode was fitted at 3026 Hz or 1773 Hz depending on round-off
-      // (docs/diagnosis.md, "Faster, and the study rerun")
+      // (docs/diagnosis-history.md, "Faster, and the study rerun")
       std::vector<EffectParameter>{{"reed", "second_mode_frequency_Hz", 1500.0, 9000.0, true,
                                     "second bending mode's natural frequency", 17}},
       [](std::span<const double> v, system::SystemParameters &p) {
