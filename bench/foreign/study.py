@@ -82,6 +82,9 @@ ROW_REQUIRED = ("case", "truth", "scenario", "named", "correct", "verdict", "res
                 "frequency_Hz")
 ROW_NUMBERS = ("frequency_Hz", "residual_baseline", "residual_after", "rel_error", "wall_time_s", "reported_sd",
                "combined_error")
+# what --compare reads of another study's rows: these filled, rel_error a column (empty where nothing was named)
+COMPARE_REQUIRED = ("case", "named", "verdict", "residual_after")
+COMPARE_COLUMNS = COMPARE_REQUIRED + ("rel_error",)
 
 
 def read_rows(path, required=ROW_REQUIRED):
@@ -355,7 +358,7 @@ def compare(rows, old_path):
     or its folder): named effect, verdict, parameter error by more than a
     point, residual after by more than 0.05 noise units. The report's lines."""
     old_path = study_csv(old_path)
-    old = {r["case"]: r for r in read_rows(old_path, ("case", "named", "verdict", "residual_after"))}
+    old = {r["case"]: r for r in read_rows(old_path, COMPARE_REQUIRED)}
     err = lambda r: float(r["rel_error"]) if r.get("rel_error") not in ("", None) else None  # noqa: E731
     show = lambda e: "-" if e is None else f"{100 * e:.1f} %"  # noqa: E731
     md = ["", f"Against {old_path} (records in both: what moved):", "",
@@ -469,11 +472,11 @@ def main():
         if not os.path.isfile(other):
             sys.exit(f"study.py: --compare {args.compare}: no study there (no file {other})")
         with open(other) as fh:
-            missing = {"case", "named", "verdict", "rel_error", "residual_after"} - set(csv.DictReader(fh).fieldnames or [])
+            missing = set(COMPARE_COLUMNS) - set(csv.DictReader(fh).fieldnames or [])
         if missing:
             sys.exit(f"study.py: --compare {other}: not a study's cases.csv (no column {', '.join(sorted(missing))})")
         try:
-            read_rows(other, ("case", "named", "verdict", "residual_after"))
+            read_rows(other, COMPARE_REQUIRED)
         except StudyError as e:
             sys.exit(f"study.py: --compare {e}")
     os.makedirs(args.out, exist_ok=True)
