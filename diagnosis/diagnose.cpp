@@ -6,6 +6,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <functional>
 #include <limits>
 #include <mutex>
@@ -65,6 +66,39 @@ namespace rectify::diagnosis
       return std::chrono::duration<double>(Clock::now() - start).count();
     }
 
+    /// The cores a diagnosis may use (DiagnoseOptions::threads) and how many
+    /// threads compute at the moment: parallel_for's workers count while they
+    /// take tasks, its caller not while it waits for them. A search that
+    /// finds a core idle evaluates its first points ahead on it
+    /// (minimise_in_unit_box). 0 cores: none is lent.
+    struct CoreUse
+    {
+      std::atomic<int> cores{0};
+      std::atomic<int> computing{1};
+      std::atomic<int> handed_over{0}; ///< values evaluated ahead that a search took
+
+      /// Takes up to `wanted` idle cores; returns how many it took.
+      int take_idle(int wanted)
+      {
+        int now = computing.load();
+        for (;;)
+          {
+            const int idle = std::min(wanted, cores.load() - now);
+            if (idle <= 0)
+              return 0;
+            if (computing.compare_exchange_weak(now, now + idle))
+              return idle;
+          }
+      }
+      void give_back(int n) { computing -= n; }
+    };
+
+    CoreUse &core_use()
+    {
+      static CoreUse use;
+      return use;
+    }
+
     /// fn(i) for i in [0, n) on up to `threads` threads; rethrows the first
     /// exception. The runs of one evaluation are independent simulations.
     template <typename F>
@@ -81,8 +115,10 @@ namespace rectify::diagnosis
       std::exception_ptr       error;
       std::mutex               mutex;
       std::vector<std::thread> pool;
+      core_use().give_back(1); // the caller waits
       for (unsigned t = 0; t < threads; ++t)
         pool.emplace_back([&] {
+          core_use().computing += 1;
           for (std::size_t i; (i = next++) < n;)
             try
               {
@@ -94,9 +130,11 @@ namespace rectify::diagnosis
                 if (!error)
                   error = std::current_exception();
               }
+          core_use().give_back(1);
         });
       for (auto &t : pool)
         t.join();
+      core_use().computing += 1;
       if (error)
         std::rethrow_exception(error);
     }
@@ -322,6 +360,36 @@ namespace rectify::diagnosis
       return std::max(1.0, static_cast<double>(n) * mean_band_fraction(runs));
     }
 
+    /// One evaluation of the model: its training residual, or a run that
+    /// failed to integrate.
+    struct Outcome
+    {
+      bool            failed = false;
+      SquaredResidual r;
+    };
+
+    Outcome evaluate(const Evaluator &ev, const std::vector<double> &u)
+    {
+      Outcome out;
+      try
+        {
+          out.r = ev.training(u);
+        }
+      catch (const std::exception &)
+        {
+          out.failed = true;
+        }
+      return out;
+    }
+
+    /// A point evaluated ahead of the search that will ask for it.
+    struct Ahead
+    {
+      std::vector<double> u;
+      Outcome             outcome;
+      bool                ready = false;
+    };
+
     struct Objective
     {
       const Evaluator *evaluator;
@@ -330,6 +398,10 @@ namespace rectify::diagnosis
       std::size_t      n           = 0;
       double           best        = 1e300;
       std::vector<double> best_u;
+      /// The search's next points, evaluated ahead (minimise_in_unit_box),
+      /// in the order it asks for them; dropped at the first it does not.
+      const std::vector<Ahead> *ahead      = nullptr;
+      std::size_t               ahead_next = 0;
 
       /// Adds a search's tally made with its own Objective (another thread's),
       /// keeping the better best point.
@@ -346,24 +418,40 @@ namespace rectify::diagnosis
       }
     };
 
+    /// The same point to the last bit (a value evaluated ahead stands for
+    /// this one only then).
+    bool same_bits(const std::vector<double> &a, const double *b, std::size_t n)
+    {
+      return a.size() == n && std::memcmp(a.data(), b, n * sizeof(double)) == 0;
+    }
+
     double objective(unsigned n, const double *x, double *, void *data)
     {
       auto *o = static_cast<Objective *>(data);
       std::vector<double> u(x, x + n);
       ++o->evaluations;
-      double value;
-      try
+      Outcome e;
+      if (o->ahead && o->ahead_next < o->ahead->size() && (*o->ahead)[o->ahead_next].ready &&
+          same_bits((*o->ahead)[o->ahead_next].u, x, n))
         {
-          const auto r = o->evaluator->training(u);
-          o->n         = r.n;
-          value        = r.sum / static_cast<double>(std::max<std::size_t>(r.n, 1));
-          if (!std::isfinite(value))
-            throw std::runtime_error("non-finite residual");
+          e = (*o->ahead)[o->ahead_next++].outcome;
+          ++core_use().handed_over;
         }
-      catch (const std::exception &)
+      else
+        {
+          o->ahead = nullptr;
+          e        = evaluate(*o->evaluator, u);
+        }
+      double value = 1e6; // the model failed to integrate here: far worse than any fit
+      if (!e.failed)
+        {
+          o->n  = e.r.n;
+          value = e.r.sum / static_cast<double>(std::max<std::size_t>(e.r.n, 1));
+        }
+      if (e.failed || !std::isfinite(value))
         {
           ++o->failures;
-          value = 1e6; // the model failed to integrate here: far worse than any fit
+          value = 1e6;
         }
       if (value < o->best)
         {
@@ -373,25 +461,91 @@ namespace rectify::diagnosis
       return value;
     }
 
-    /// A local minimisation over [0, 1]^n from x (left at the result, its
-    /// value in *value): BOBYQA, or COBYLA in one dimension (BOBYQA needs
-    /// two), with first steps `step` per coordinate.
-    nlopt_result minimise_in_unit_box(nlopt_func f, void *data, std::vector<double> &x,
-                                      const std::vector<double> &step, double xtol_abs, double ftol_rel,
-                                      int max_evaluations, double *value)
+    nlopt_opt make_search(unsigned dim, const std::vector<double> &step, double xtol_abs, double ftol_rel,
+                          int max_evaluations)
     {
-      const auto          dim = static_cast<unsigned>(x.size());
       nlopt_opt           opt = nlopt_create(dim >= 2 ? NLOPT_LN_BOBYQA : NLOPT_LN_COBYLA, dim);
       std::vector<double> lo(dim, 0.0), hi(dim, 1.0);
       nlopt_set_lower_bounds(opt, lo.data());
       nlopt_set_upper_bounds(opt, hi.data());
       nlopt_set_initial_step(opt, step.data());
-      nlopt_set_min_objective(opt, f, data);
       nlopt_set_xtol_abs1(opt, xtol_abs);
       nlopt_set_ftol_rel(opt, ftol_rel);
       nlopt_set_maxeval(opt, max_evaluations);
+      return opt;
+    }
+
+    double record_point(unsigned n, const double *x, double *, void *data)
+    {
+      static_cast<std::vector<std::vector<double>> *>(data)->emplace_back(x, x + n);
+      return 0.0;
+    }
+
+    /// A local minimisation over [0, 1]^n from x (left at the result, its
+    /// value in *value): BOBYQA, or COBYLA in one dimension (BOBYQA needs
+    /// two), with first steps `step` per coordinate.
+    ///
+    /// BOBYQA's first 2n + 1 points (its start, and a first step either way
+    /// along each coordinate) are set by the start, the steps and the bounds
+    /// alone, not by the values it sees there (NLopt's prelim_). Where the
+    /// search is objective()'s and a core is idle (a search that runs
+    /// alone: a refit, a profile's last side), they are evaluated ahead, at
+    /// once: a search on a recorder, stopped after them, gives the points
+    /// to the last bit, and objective() hands their values over in the
+    /// search's order. The points, values, tally and result are those of
+    /// the search alone; only its time is less.
+    nlopt_result minimise_in_unit_box(nlopt_func f, void *data, std::vector<double> &x,
+                                      const std::vector<double> &step, double xtol_abs, double ftol_rel,
+                                      int max_evaluations, double *value)
+    {
+      const auto         dim   = static_cast<unsigned>(x.size());
+      auto              *o     = f == objective ? static_cast<Objective *>(data) : nullptr;
+      const int          first = max_evaluations > 0 ?
+                                   std::min<int>(2 * static_cast<int>(dim) + 1, max_evaluations) :
+                                   2 * static_cast<int>(dim) + 1;
+      std::vector<Ahead> ahead;
+      // an evaluation that already keeps every core busy (its runs at once) gains nothing
+      const bool runs_fill = o && o->evaluator->run_threads > 1 && o->evaluator->runs.size() > 1;
+      if (o && dim >= 2 && !runs_fill)
+        if (const int helpers = core_use().take_idle(first - 1); helpers > 0)
+          {
+            std::vector<std::vector<double>> points;
+            nlopt_opt                        recorder = make_search(dim, step, xtol_abs, ftol_rel, first);
+            nlopt_set_min_objective(recorder, record_point, &points);
+            std::vector<double> x0 = x;
+            double              unused;
+            nlopt_optimize(recorder, x0.data(), &unused);
+            nlopt_destroy(recorder);
+            ahead.resize(points.size());
+            std::atomic<std::size_t> next{0};
+            const auto               work = [&] {
+              for (std::size_t i; (i = next++) < ahead.size();)
+                try
+                  {
+                    ahead[i].u       = points[i];
+                    ahead[i].outcome = evaluate(*o->evaluator, points[i]);
+                    ahead[i].ready   = true;
+                  }
+                catch (...)
+                  { // not ready: the search evaluates it itself and meets the error there
+                  }
+            };
+            std::vector<std::thread> pool;
+            for (int h = 0; h < helpers; ++h)
+              pool.emplace_back(work);
+            work();
+            for (auto &t : pool)
+              t.join();
+            core_use().give_back(helpers);
+            o->ahead      = &ahead;
+            o->ahead_next = 0;
+          }
+      nlopt_opt opt = make_search(dim, step, xtol_abs, ftol_rel, max_evaluations);
+      nlopt_set_min_objective(opt, f, data);
       const nlopt_result status = nlopt_optimize(opt, x.data(), value);
       nlopt_destroy(opt);
+      if (o)
+        o->ahead = nullptr;
       return status;
     }
 
@@ -2303,6 +2457,17 @@ namespace rectify::diagnosis
     if (runs.empty())
       throw InputError("diagnose: no measured runs given");
     const unsigned cores = options.threads ? options.threads : std::max(1u, std::thread::hardware_concurrency());
+    // the cores a search may find idle (minimise_in_unit_box), for this diagnosis
+    struct LendCores
+    {
+      explicit LendCores(unsigned n)
+      {
+        core_use().cores       = static_cast<int>(n);
+        core_use().computing   = 1;
+        core_use().handed_over = 0;
+      }
+      ~LendCores() { core_use().cores = 0; }
+    } lend(cores);
     choose_start(base_in, map, runs, options, cores);
     calibrate_noise(base_in, map, runs, options.relative_tolerance, cores);
     DiagnosisResult result;
@@ -3343,6 +3508,7 @@ namespace rectify::diagnosis
     result.swing_after      = pooled_norms(runs, result.after, true);
     result.runs             = runs;
     result.wall_time_s      = seconds_since(start);
+    result.runs_evaluated_ahead = core_use().handed_over;
     return result;
   }
 
@@ -3612,6 +3778,7 @@ namespace rectify::diagnosis
             {"localisation", localisation},
             {"trends", r.trend_sentences},
             {"wall_time_s", r.wall_time_s},
+            {"runs_evaluated_ahead", r.runs_evaluated_ahead},
             {"definitions",
              {{"residual", "RMS of (model - data) / (the signal's expected noise: its white noise and the "
                            "model's response to the drive's noise), per signal over every run; overall: RMS "

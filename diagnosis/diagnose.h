@@ -405,6 +405,10 @@ namespace rectify::diagnosis
     /// absorbed_by_baseline); the verdict says so.
     std::vector<AbsorbedEffect> absorbed_by_baseline;
     double                    wall_time_s = 0;
+    /// Of the runs of the model: those a search took from an idle core,
+    /// where they had been evaluated ahead (the first points of a search
+    /// that runs alone); their values are the ones it would have made.
+    int                       runs_evaluated_ahead = 0;
   };
 
   /// The candidates in `library` whose combined quantity is more than

@@ -73,7 +73,8 @@ namespace rectify::system
       return currents_.front();
     if (t >= times_.back())
       return currents_.back();
-    std::size_t i = last_ < times_.size() - 1 ? last_ : 0;
+    const std::size_t hint = last_.segment.load(std::memory_order_relaxed);
+    std::size_t       i    = hint < times_.size() - 1 ? hint : 0;
     if (!(times_[i] <= t && t < times_[i + 1]))
       {
         if (i + 2 < times_.size() && times_[i + 1] <= t && t < times_[i + 2])
@@ -81,7 +82,7 @@ namespace rectify::system
         else
           i = static_cast<std::size_t>(std::upper_bound(times_.begin(), times_.end(), t) -
                                        times_.begin()) - 1;
-        last_ = i;
+        last_.segment.store(i, std::memory_order_relaxed);
       }
     const double s  = (t - times_[i]) / (times_[i + 1] - times_[i]);
     return currents_[i] + s * (currents_[i + 1] - currents_[i]);

@@ -2,6 +2,7 @@
 // V(t) (a measured record), which the model turns into a current.
 #pragma once
 
+#include <atomic>
 #include <filesystem>
 #include <vector>
 
@@ -36,6 +37,22 @@ namespace rectify::system
     std::vector<double> times_, currents_; // empty for the sine
     std::string         source_;
     bool                voltage_ = false;
-    mutable std::size_t last_ = 0; // segment of the last lookup (runs look up increasing times)
+    /// The segment of the last lookup (runs look up increasing times): a
+    /// hint, shared by the threads that simulate with one drive at once;
+    /// any value is a valid start, so relaxed.
+    struct Hint
+    {
+      std::atomic<std::size_t> segment{0};
+      Hint() = default;
+      Hint(const Hint &o)
+        : segment(o.segment.load(std::memory_order_relaxed))
+      {}
+      Hint &operator=(const Hint &o)
+      {
+        segment.store(o.segment.load(std::memory_order_relaxed), std::memory_order_relaxed);
+        return *this;
+      }
+    };
+    mutable Hint last_;
   };
 } // namespace rectify::system
