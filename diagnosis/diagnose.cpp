@@ -12,6 +12,7 @@
 #include <mutex>
 #include <numeric>
 #include <optional>
+#include <system_error>
 #include <thread>
 
 #include <Eigen/Dense>
@@ -532,7 +533,14 @@ namespace rectify::diagnosis
             };
             std::vector<std::thread> pool;
             for (int h = 0; h < helpers; ++h)
-              pool.emplace_back(work);
+              try
+                {
+                  pool.emplace_back(work);
+                }
+              catch (const std::system_error &)
+                { // no thread to be had: the ones started, and this one, do the rest
+                  break;
+                }
             work();
             for (auto &t : pool)
               t.join();
