@@ -102,6 +102,8 @@ namespace rectify::diagnosis
 
     /// fn(i) for i in [0, n) on up to `threads` threads; rethrows the first
     /// exception. The runs of one evaluation are independent simulations.
+    /// Where fewer threads can be started, those that did (or the caller)
+    /// take every task.
     template <typename F>
     void parallel_for(std::size_t n, unsigned threads, const F &fn)
     {
@@ -115,24 +117,34 @@ namespace rectify::diagnosis
       std::atomic<std::size_t> next{0};
       std::exception_ptr       error;
       std::mutex               mutex;
+      const auto               worker = [&] {
+        core_use().computing += 1;
+        for (std::size_t i; (i = next++) < n;)
+          try
+            {
+              fn(i);
+            }
+          catch (...)
+            {
+              std::lock_guard lock(mutex);
+              if (!error)
+                error = std::current_exception();
+            }
+        core_use().give_back(1);
+      };
       std::vector<std::thread> pool;
       core_use().give_back(1); // the caller waits
       for (unsigned t = 0; t < threads; ++t)
-        pool.emplace_back([&] {
-          core_use().computing += 1;
-          for (std::size_t i; (i = next++) < n;)
-            try
-              {
-                fn(i);
-              }
-            catch (...)
-              {
-                std::lock_guard lock(mutex);
-                if (!error)
-                  error = std::current_exception();
-              }
-          core_use().give_back(1);
-        });
+        try
+          {
+            pool.emplace_back(worker);
+          }
+        catch (const std::system_error &)
+          {
+            break;
+          }
+      if (pool.empty())
+        worker();
       for (auto &t : pool)
         t.join();
       core_use().computing += 1;
@@ -388,7 +400,6 @@ namespace rectify::diagnosis
     {
       std::vector<double> u;
       Outcome             outcome;
-      bool                ready = false;
     };
 
     struct Objective
@@ -432,8 +443,7 @@ namespace rectify::diagnosis
       std::vector<double> u(x, x + n);
       ++o->evaluations;
       Outcome e;
-      if (o->ahead && o->ahead_next < o->ahead->size() && (*o->ahead)[o->ahead_next].ready &&
-          same_bits((*o->ahead)[o->ahead_next].u, x, n))
+      if (o->ahead && o->ahead_next < o->ahead->size() && same_bits((*o->ahead)[o->ahead_next].u, x, n))
         {
           e = (*o->ahead)[o->ahead_next++].outcome;
           ++core_use().handed_over;
@@ -443,7 +453,7 @@ namespace rectify::diagnosis
           o->ahead = nullptr;
           e        = evaluate(*o->evaluator, u);
         }
-      double value = 1e6; // the model failed to integrate here: far worse than any fit
+      double value = 0;
       if (!e.failed)
         {
           o->n  = e.r.n;
@@ -452,7 +462,7 @@ namespace rectify::diagnosis
       if (e.failed || !std::isfinite(value))
         {
           ++o->failures;
-          value = 1e6;
+          value = 1e6; // the model failed to integrate here: far worse than any fit
         }
       if (value < o->best)
         {
@@ -517,34 +527,12 @@ namespace rectify::diagnosis
             double              unused;
             nlopt_optimize(recorder, x0.data(), &unused);
             nlopt_destroy(recorder);
-            ahead.resize(points.size());
-            std::atomic<std::size_t> next{0};
-            const auto               work = [&] {
-              for (std::size_t i; (i = next++) < ahead.size();)
-                try
-                  {
-                    ahead[i].u       = points[i];
-                    ahead[i].outcome = evaluate(*o->evaluator, points[i]);
-                    ahead[i].ready   = true;
-                  }
-                catch (...)
-                  { // not ready: the search evaluates it itself and meets the error there
-                  }
-            };
-            std::vector<std::thread> pool;
-            for (int h = 0; h < helpers; ++h)
-              try
-                {
-                  pool.emplace_back(work);
-                }
-              catch (const std::system_error &)
-                { // no thread to be had: the ones started, and this one, do the rest
-                  break;
-                }
-            work();
-            for (auto &t : pool)
-              t.join();
+            // the cores taken go back to parallel_for, which counts its own
             core_use().give_back(helpers);
+            ahead.resize(points.size());
+            parallel_for(points.size(), 1 + static_cast<unsigned>(helpers), [&](std::size_t i) {
+              ahead[i] = {points[i], evaluate(*o->evaluator, points[i])};
+            });
             o->ahead      = &ahead;
             o->ahead_next = 0;
           }
