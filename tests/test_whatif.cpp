@@ -12,6 +12,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <map>
 #include <random>
 #include <set>
@@ -329,22 +330,42 @@ TEST(Whatif, OneAndTwoProcessesAgreeCachedMapSetsAreReusedAndAKilledBatchResumes
     EXPECT_FALSE(fs::exists(dir / "held" / "batch.json"));
   }
 
-  // Killed (kill -9, the whole process group) at a random moment, started again.
+  // Killed (kill -9, the whole process group) at a random moment, started
+  // again. The moment is counted in the batch's own finished jobs, not in
+  // seconds: after a random number of them (none to all but one) and, while
+  // three or more are left, a random part of a second into the next. So it
+  // falls before the batch ends however the machine's load changes (a kill
+  // timed in seconds came after the end once, when other tests' load lifted).
+  const auto jobs_done = [](const fs::path &log) {
+    std::stringstream in(fs::exists(log) ? read_file(log) : std::string());
+    int               n = 0;
+    for (std::string line; std::getline(in, line);)
+      n += line.find(" done ") != std::string::npos;
+    return n;
+  };
+  const int total = jobs_done(dir / "two" / "jobs.log");
+  ASSERT_GE(total, 3) << read_file(dir / "two" / "jobs.log");
   std::random_device device;
   const unsigned     seed = device();
   std::mt19937       rng(seed);
-  // Between 3 s and 70 % of the uninterrupted batch's time: before it ends.
-  const double two_s         = nlohmann::json::parse(read_file(dir / "two" / "run.json"))["wall_time_s"].get<double>();
-  const int    kill_after_ms = std::uniform_int_distribution<int>(3000, std::max(3001, int(700 * two_s)))(rng);
-  SCOPED_TRACE("killed after " + std::to_string(kill_after_ms) + " ms (seed " + std::to_string(seed) + ")");
+  const int          kill_at  = std::uniform_int_distribution<int>(0, total - 1)(rng);
+  const int          extra_ms = kill_at <= total - 3 ? std::uniform_int_distribution<int>(0, 500)(rng) : 0;
+  const std::string when = "killed after " + std::to_string(kill_at) + " of " + std::to_string(total) + " jobs and " +
+                           std::to_string(extra_ms) + " ms (seed " + std::to_string(seed) + ")";
+  SCOPED_TRACE(when);
+  std::cout << when << std::endl;
   write_file_atomic(dir / "killed.sh", command(2, "killed", "cache3") + " > " + (dir / "killed-1.log").string() + " 2>&1\n");
   std::system(("setsid bash " + (dir / "killed.sh").string() + " & echo $! > " + (dir / "pid").string()).c_str());
   const auto started = std::chrono::steady_clock::now();
-  std::this_thread::sleep_until(started + std::chrono::milliseconds(kill_after_ms));
+  while (jobs_done(dir / "killed" / "jobs.log") < kill_at &&
+         std::chrono::steady_clock::now() < started + std::chrono::minutes(20))
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  std::this_thread::sleep_for(std::chrono::milliseconds(extra_ms));
   const std::string pgid = read_file(dir / "pid");
   std::system(("kill -9 -" + pgid.substr(0, pgid.find('\n')) + " 2>/dev/null").c_str());
   for (int i = 0; i < 100 && std::system(("pgrep -f " + (dir / "killed").string() + " > /dev/null").c_str()) == 0; ++i)
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  ASSERT_GE(jobs_done(dir / "killed" / "jobs.log"), kill_at) << read_file(dir / "killed-1.log"); // not timed out
   ASSERT_FALSE(fs::exists(dir / "killed" / "whatif.csv")) << "the batch ended before it was killed";
   ASSERT_EQ(run(command(2, "killed", "cache3"), dir / "killed-2.log"), 0) << read_file(dir / "killed-2.log");
   expect_same_table(dir / "two", dir / "killed", 1e-9);
