@@ -2440,8 +2440,22 @@ namespace rectify::diagnosis
       if (const auto *c = e->combination())
         {
           const double at_case = c->value(case_parameters), at_fit = c->value(fitted);
-          if (at_case > 0 && at_fit > factor * at_case)
-            out.push_back({e->name(), c->name, c->meaning, at_case, at_fit});
+          if (!(at_case > 0 && at_fit > factor * at_case))
+            continue;
+          AbsorbedEffect a{e->name(), c->name, c->meaning, at_case, at_fit, {}};
+          // the [uncertain] parameters the quantity moves with, at the fit
+          for (const auto &q : case_parameters.uncertain)
+            {
+              auto    moved = fitted;
+              double *v     = moved.real_field(q.table, q.key);
+              if (!v)
+                continue;
+              const double was = *v;
+              *v = was != 0 ? 1.01 * was : q.lower + 0.01 * (q.upper - q.lower);
+              if (c->value(moved) != at_fit)
+                a.set_by.emplace_back(q.name(), was);
+            }
+          out.push_back(std::move(a));
         }
     return out;
   }
@@ -3497,6 +3511,21 @@ namespace rectify::diagnosis
                             a.quantity.c_str(), a.fitted, a.fitted / a.case_value, a.case_value, a.meaning.c_str(),
                             a.effect.c_str(), a.fitted - a.case_value);
               result.verdict_sentence += buf;
+              if (!a.set_by.empty())
+                {
+                  std::string keys;
+                  for (std::size_t i = 0; i < a.set_by.size(); ++i)
+                    {
+                      std::snprintf(buf, sizeof buf, "%s%s (fitted %.3g)",
+                                    i == 0 ? "" : i + 1 == a.set_by.size() ? " and " : ", ",
+                                    a.set_by[i].first.c_str(), a.set_by[i].second);
+                      keys += buf;
+                    }
+                  result.verdict_sentence += ". To tell them apart, measure " + keys +
+                                             " on the rig and give the case those values (or narrow their "
+                                             "[uncertain] ranges to what is measured): the rest is then " +
+                                             a.effect + "'s";
+                }
             }
         }
     }
@@ -3679,11 +3708,17 @@ namespace rectify::diagnosis
         if (&rr == &first)
           parameters = p;
       }
+    const auto set_by = [](const AbsorbedEffect &a) {
+      json out = json::array();
+      for (const auto &[key, fitted] : a.set_by)
+        out.push_back({{"key", key}, {"fitted", fitted}});
+      return out;
+    };
     json absorbed = json::array();
     for (const auto &a : r.absorbed_by_baseline)
       absorbed.push_back({{"effect", a.effect}, {"quantity", a.quantity}, {"meaning", a.meaning},
                           {"case_value", a.case_value}, {"fitted", a.fitted},
-                          {"as_the_effect", a.fitted - a.case_value}});
+                          {"as_the_effect", a.fitted - a.case_value}, {"set_by", set_by(a)}});
     // run i's list, the most first, as the report gives it (empty where
     // there is none: a diagnosis that stopped before its verdict)
     const auto in_noise_units = [](const std::vector<std::vector<SignalResidual>> &all, std::size_t i) {

@@ -337,6 +337,10 @@ namespace rectify::diagnosis
   {
     std::string effect, quantity, meaning;
     double      case_value = 0, fitted = 0;
+    /// The [uncertain] parameters that set the baseline's part of the
+    /// quantity, as fitted: measured on the rig and declared, they leave
+    /// the rest to the effect.
+    std::vector<std::pair<std::string, double>> set_by;
   };
 
   /// A signal's sensor lag as a diagnosis fitted it (sensors.h).

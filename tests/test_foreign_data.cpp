@@ -550,6 +550,10 @@ TEST(Diagnosis, ABaselineThatTakesUpASealIsReported)
   EXPECT_NEAR(a[0].fitted, oil_per_metre * 0.15, 1e-12 * a[0].fitted);
   // the seal that holds as much on the case's column: 0.1246 m of oil
   EXPECT_NEAR(a[0].fitted - a[0].case_value, oil_per_metre * (0.15 - 0.0254), 1e-12 * a[0].fitted);
+  // what to measure to tell them apart: the [uncertain] parameters the
+  // column's compliance moves with (not the lines' bore or the gas), as fitted
+  using Set = std::vector<std::pair<std::string, double>>;
+  EXPECT_EQ(a[0].set_by, (Set{{"cylinder.wetted_length_m", 0.15}, {"cylinder.piston_area_m2", c.piston_area_m2}}));
   // within the factor, or softer than the case's column (a seal adds), or
   // no candidate with such a quantity: nothing to say
   fitted.cylinder.wetted_length_m = 0.045;
