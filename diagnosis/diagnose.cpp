@@ -3474,14 +3474,14 @@ namespace rectify::diagnosis
         {
           result.verdict = "no missing effect";
           std::snprintf(buf, sizeof buf,
-                        "no missing effect: the calibrated baseline leaves %.3g noise units (at most %.3g)",
+                        "the calibrated baseline leaves %.3g noise units (at most %.3g)",
                         after, floor_units);
         }
       else
         {
           result.verdict = "beyond the library";
           std::snprintf(buf, sizeof buf,
-                        "beyond the library: no effect of the library earns its parameters, and %.3g noise "
+                        "no effect of the library earns its parameters, and %.3g noise "
                         "units remain after the baseline fit (more than %.3g). Largest remaining residual: %s",
                         after, floor_units, where.c_str());
         }

@@ -958,6 +958,10 @@ TEST(ForeignData, TheVerdictSaysBeyondTheLibraryWhenNothingFits)
   // the report lists every signal after the fit, the most first
   std::ifstream     in(dir / "d" / "report.md");
   const std::string report((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  // the verdict once, then why (not "beyond the library. beyond the library: ...")
+  EXPECT_NE(report.find("**Verdict: beyond the library.** no effect of the library earns its parameters"),
+            std::string::npos)
+    << report.substr(0, 2000);
   const auto        after = report.find("## Where the final model still disagrees (after)");
   ASSERT_NE(after, std::string::npos) << report;
   const auto first = report.find("\n- ", after);
