@@ -337,11 +337,19 @@ TEST(Whatif, OneAndTwoProcessesAgreeCachedMapSetsAreReusedAndAKilledBatchResumes
   // three or more are left, a random part of a second into the next. So it
   // falls before the batch ends however the machine's load changes (a kill
   // timed in seconds came after the end once, when other tests' load lifted).
-  const auto jobs_done = [](const fs::path &log) {
-    std::stringstream in(fs::exists(log) ? read_file(log) : std::string());
-    int               n = 0;
+  // each job's "done" lines in a batch's log (none while it has no log)
+  const auto done_in = [](const fs::path &log) {
+    std::map<std::string, int> done;
+    std::stringstream          in(fs::exists(log) ? read_file(log) : std::string());
     for (std::string line; std::getline(in, line);)
-      n += line.find(" done ") != std::string::npos;
+      if (const auto at = line.find(" done "); at != std::string::npos)
+        ++done[line.substr(at + 6, line.find(' ', at + 6) - at - 6)];
+    return done;
+  };
+  const auto jobs_done = [&](const fs::path &log) {
+    int n = 0;
+    for (const auto &[job, times] : done_in(log))
+      n += times;
     return n;
   };
   const int total = jobs_done(dir / "two" / "jobs.log");
@@ -357,14 +365,13 @@ TEST(Whatif, OneAndTwoProcessesAgreeCachedMapSetsAreReusedAndAKilledBatchResumes
   std::cout << when << std::endl;
   write_file_atomic(dir / "killed.sh", command(2, "killed", "cache3") + " > " + (dir / "killed-1.log").string() + " 2>&1\n");
   std::system(("setsid bash " + (dir / "killed.sh").string() + " & echo $! > " + (dir / "pid").string()).c_str());
-  const std::string pgid    = read_file(dir / "pid");
-  const pid_t       leader  = static_cast<pid_t>(std::stol(pgid));
-  const auto        started = std::chrono::steady_clock::now();
+  const pid_t leader  = static_cast<pid_t>(std::stol(read_file(dir / "pid")));
+  const auto  started = std::chrono::steady_clock::now();
   while (jobs_done(dir / "killed" / "jobs.log") < kill_at && ::kill(leader, 0) == 0 &&
          std::chrono::steady_clock::now() < started + std::chrono::minutes(20))
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   std::this_thread::sleep_for(std::chrono::milliseconds(extra_ms));
-  std::system(("kill -9 -" + pgid.substr(0, pgid.find('\n')) + " 2>/dev/null").c_str());
+  std::system(("kill -9 -" + std::to_string(leader) + " 2>/dev/null").c_str());
   for (int i = 0; i < 100 && std::system(("pgrep -f " + (dir / "killed").string() + " > /dev/null").c_str()) == 0; ++i)
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   // neither ended nor timed out before its moment
@@ -374,11 +381,7 @@ TEST(Whatif, OneAndTwoProcessesAgreeCachedMapSetsAreReusedAndAKilledBatchResumes
   expect_same_table(dir / "two", dir / "killed", 1e-9);
   EXPECT_EQ(files(dir / "two"), files(dir / "killed"));
   // No job finished twice.
-  std::map<std::string, int> done;
-  std::stringstream          log(read_file(dir / "killed" / "jobs.log"));
-  for (std::string line; std::getline(log, line);)
-    if (const auto at = line.find(" done "); at != std::string::npos)
-      ++done[line.substr(at + 6, line.find(' ', at + 6) - at - 6)];
+  const auto done = done_in(dir / "killed" / "jobs.log");
   EXPECT_FALSE(done.empty());
   for (const auto &[job, n] : done)
     EXPECT_EQ(n, 1) << job;
