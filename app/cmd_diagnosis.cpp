@@ -95,6 +95,7 @@ namespace rectify::app
       bool                       second       = false;
       bool                       ideal_sensors = false;
       diagnosis::DiagnoseOptions options;
+      std::string                settings; ///< every option's value, as CLI11 writes a config file
     };
 
     std::string sci(double v)
@@ -216,9 +217,44 @@ namespace rectify::app
       const bool                  made_out = !std::filesystem::exists(out);
       OutputLock                  lock; // a folder in use is refused now, not after minutes of fits
       lock.acquire_if_exists(out);
-      const auto map    = system::load_valve_maps(p);
-      const auto result = diagnosis::diagnose(p, map, runs, o.options);
-      lock.acquire(out);
+      const auto map = system::load_valve_maps(p);
+      // Each candidate's fit is kept in the folder as it ends: the same
+      // command, interrupted, takes them up again (DiagnoseOptions).
+      lock.acquire(out); // made now (the maps read: bad input leaves none)
+      o.options.checkpoint_dir = out;
+      {
+        nlohmann::json data_hashes = nlohmann::json::array();
+        for (const auto &d : o.data)
+          data_hashes.push_back(file_hash(d));
+        std::string        settings; // every option but the folder the fits are kept in
+        std::istringstream lines(o.settings);
+        for (std::string line; std::getline(lines, line);)
+          if (!line.starts_with("out=") && !line.starts_with("out ="))
+            settings += line + "\n";
+        o.options.checkpoint_fingerprint = {{"revision", source_revision()},
+                                            {"version", RECTIFY_VERSION},
+                                            {"settings", settings},
+                                            {"case", file_hash(o.case_path)},
+                                            {"data", data_hashes}};
+      }
+      const auto result = [&] {
+        try
+          {
+            return diagnosis::diagnose(p, map, runs, o.options);
+          }
+        catch (...)
+          {
+            // a failure before any fit was kept leaves nothing behind
+            if (diagnosis::kept_fits(out) == 0)
+              {
+                diagnosis::remove_checkpoint(out);
+                std::error_code ec;
+                if (made_out && std::filesystem::is_empty(out, ec))
+                  std::filesystem::remove(out, ec);
+              }
+            throw;
+          }
+      }();
       auto summary = diagnosis::to_json(result, runs);
       summary["command"]         = "diagnose";
       summary["rectify_version"] = RECTIFY_VERSION;
@@ -584,6 +620,7 @@ namespace rectify::app
                   result.residual_before.at("overall"), result.residual_after.at("overall"),
                   100 * (1 - result.residual_after.at("overall") / result.residual_before.at("overall")));
       std::printf("wrote %s, %s\n", (out / "summary.json").c_str(), (out / case_name).c_str());
+      diagnosis::remove_checkpoint(out); // complete: nothing left to resume
     }
   } // namespace
 
@@ -676,7 +713,10 @@ namespace rectify::app
                       "residual [noise units] above which the verdict says: model error beyond the library")
         ->check(CLI::Range(1.0, 1000.0))
         ->capture_default_str();
-      cmd->callback([o] { diagnose(*o); });
+      cmd->callback([o, cmd] {
+        o->settings = cmd->config_to_str(true, false);
+        diagnose(*o);
+      });
     }
 
     auto o   = std::make_shared<SynthCommandOptions>();

@@ -12,6 +12,24 @@
 
 namespace rectify
 {
+  bool Checkpoint::holds_other(const std::filesystem::path &dir, const std::string &name,
+                               const nlohmann::json &fingerprint)
+  {
+    if (!std::filesystem::exists(dir / (name + ".csv")))
+      return false;
+    nlohmann::json old;
+    try
+      {
+        std::ifstream in(dir / (name + ".json"));
+        old = nlohmann::json::parse(in);
+      }
+    catch (const std::exception &)
+      {
+        old = nullptr;
+      }
+    return old != fingerprint;
+  }
+
   Checkpoint::Checkpoint(const std::filesystem::path &dir, const std::string &name,
                          const nlohmann::json &fingerprint, const std::string &header)
   {
@@ -19,17 +37,7 @@ namespace rectify
     const auto json = dir / (name + ".json");
     if (std::filesystem::exists(csv))
       {
-        nlohmann::json old;
-        try
-          {
-            std::ifstream in(json);
-            old = nlohmann::json::parse(in);
-          }
-        catch (const std::exception &)
-          {
-            old = nullptr;
-          }
-        if (old != fingerprint)
+        if (holds_other(dir, name, fingerprint))
           throw InputError("'" + dir.string() + "' holds a partial run with other settings (" +
                            json.string() + "); choose another --out, or delete its " + name +
                            ".* files");

@@ -24,6 +24,11 @@ namespace rectify
     Checkpoint(const Checkpoint &)            = delete;
     Checkpoint &operator=(const Checkpoint &) = delete;
 
+    /// True where DIR holds a checkpoint NAME made with another fingerprint
+    /// (or whose fingerprint cannot be read): the constructor would refuse it.
+    static bool holds_other(const std::filesystem::path &dir, const std::string &name,
+                            const nlohmann::json &fingerprint);
+
     /// The complete rows found when opening (a row cut off by a kill is dropped).
     const std::vector<std::string> &finished_rows() const { return rows_; }
     /// Appends one row (without newline) in one write. Thread-safe. Throws

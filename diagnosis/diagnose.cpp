@@ -7,8 +7,11 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <fstream>
 #include <functional>
+#include <iterator>
 #include <limits>
+#include <map>
 #include <mutex>
 #include <numeric>
 #include <optional>
@@ -18,6 +21,8 @@
 #include <Eigen/Dense>
 
 #include "common/case_file.h"
+#include "common/checkpoint.h"
+#include "common/io.h"
 #include "diagnosis/sensors.h"
 #include "diagnosis/uncertainty.h"
 
@@ -2460,6 +2465,182 @@ namespace rectify::diagnosis
     return out;
   }
 
+  namespace
+  {
+    // A double as C's hexadecimal float ("%a"): read back to the last bit,
+    // infinities and NaN included (JSON numbers hold neither).
+    std::string exact(double v)
+    {
+      char buf[40];
+      std::snprintf(buf, sizeof buf, "%a", v);
+      return buf;
+    }
+
+    double exact(const nlohmann::json &j) { return std::strtod(j.get<std::string>().c_str(), nullptr); }
+
+    nlohmann::json kept_fit(int round, const CandidateResult &c)
+    {
+      nlohmann::json values = nlohmann::json::array(), u = nlohmann::json::array(),
+                     baseline = nlohmann::json::object();
+      for (double v : c.values)
+        values.push_back(exact(v));
+      for (double v : c.u)
+        u.push_back(exact(v));
+      for (const auto &[key, v] : c.baseline)
+        baseline[key] = exact(v);
+      return {{"round", round},
+              {"effect", c.effect},
+              {"values", values},
+              {"force_gain", exact(c.force_gain)},
+              {"baseline", baseline},
+              {"u", u},
+              {"k", c.k},
+              {"ssr_train", exact(c.ssr_train)},
+              {"n_train", c.n_train},
+              {"rms_train", exact(c.rms_train)},
+              {"rms_heldout", exact(c.rms_heldout)},
+              {"bic", exact(c.bic)},
+              {"aic", exact(c.aic)},
+              {"evaluations", c.evaluations},
+              {"wall_time_s", exact(c.wall_time_s)},
+              {"failed", c.failed},
+              {"message", c.message},
+              {"search_note", c.search_note},
+              {"ringing_note", c.ringing_note},
+              {"ringing_runs", c.ringing_runs},
+              {"ringing_time_s", exact(c.ringing_time_s)}};
+    }
+
+    CandidateResult fit_from(const nlohmann::json &j)
+    {
+      CandidateResult c;
+      c.effect = j.at("effect").get<std::string>();
+      for (const auto &v : j.at("values"))
+        c.values.push_back(exact(v));
+      c.force_gain = exact(j.at("force_gain"));
+      for (const auto &[key, v] : j.at("baseline").items())
+        c.baseline[key] = exact(v);
+      for (const auto &v : j.at("u"))
+        c.u.push_back(exact(v));
+      c.k              = j.at("k").get<int>();
+      c.ssr_train      = exact(j.at("ssr_train"));
+      c.n_train        = j.at("n_train").get<std::size_t>();
+      c.rms_train      = exact(j.at("rms_train"));
+      c.rms_heldout    = exact(j.at("rms_heldout"));
+      c.bic            = exact(j.at("bic"));
+      c.aic            = exact(j.at("aic"));
+      c.evaluations    = j.at("evaluations").get<int>();
+      c.wall_time_s    = exact(j.at("wall_time_s"));
+      c.failed         = j.at("failed").get<bool>();
+      c.message        = j.at("message").get<std::string>();
+      c.search_note    = j.at("search_note").get<std::string>();
+      c.ringing_note   = j.at("ringing_note").get<std::string>();
+      c.ringing_runs   = j.at("ringing_runs").get<int>();
+      c.ringing_time_s = exact(j.at("ringing_time_s"));
+      return c;
+    }
+
+    // The candidates' fits kept as each ends (DiagnoseOptions::checkpoint_dir),
+    // and those an interrupted run of the same diagnosis kept. The fits of
+    // one round are independent of each other and of the cores they ran on:
+    // a kept fit and its predictions made again from its point are what
+    // fitting it again would give, to the last bit.
+    class FitStore
+    {
+    public:
+      FitStore(const DiagnoseOptions &o, const std::function<void(const std::string &)> &say)
+        : dir_(o.checkpoint_dir)
+        , fingerprint_(o.checkpoint_fingerprint)
+        , say_(say)
+      {
+        if (Checkpoint::holds_other(dir_, name, fingerprint_))
+          discard("another diagnosis's (other settings, inputs or revision)");
+        open();
+        for (const auto &row : file_->finished_rows())
+          {
+            // a row this revision cannot read (the fingerprint names the
+            // revision, so only a damaged file has one) discards them all
+            try
+              {
+                const auto j = nlohmann::json::parse(row);
+                kept_[{j.at("round").get<int>(), j.at("effect").get<std::string>()}] = fit_from(j);
+              }
+            catch (const std::exception &e)
+              {
+                kept_.clear();
+                discard(std::string("unreadable (") + e.what() + ")");
+                open();
+                break;
+              }
+          }
+        if (!kept_.empty())
+          say_("resuming: " + std::to_string(kept_.size()) + " fit(s) of an interrupted run of this diagnosis kept in " +
+               csv().string());
+      }
+
+      /// The fit of `effect` kept in `round`, if any
+      std::optional<CandidateResult> find(int round, const std::string &effect) const
+      {
+        const auto it = kept_.find({round, effect});
+        return it == kept_.end() ? std::nullopt : std::optional<CandidateResult>(it->second);
+      }
+
+      /// Keeps a finished fit (thread-safe)
+      void keep(int round, const CandidateResult &c) { file_->append(kept_fit(round, c).dump()); }
+
+      /// The round's none, fitted again: the kept fits stand only where the
+      /// kept none is the same to the last bit (else the inputs differ in a
+      /// way the fingerprint does not hold: a map set rewritten in place)
+      void check_none(int round, const CandidateResult &none)
+      {
+        const auto old = find(round, "none");
+        if (!old)
+          {
+            keep(round, none);
+            return;
+          }
+        if (kept_fit(round, *old).dump() != kept_fit(round, with_time(none, old->wall_time_s)).dump())
+          {
+            kept_.clear();
+            file_.reset();
+            discard("made with other inputs: its none fitted otherwise");
+            open();
+            keep(round, none);
+          }
+      }
+
+      static constexpr const char *name = "diagnosis-partial";
+
+    private:
+      static CandidateResult with_time(CandidateResult c, double t)
+      {
+        c.wall_time_s = t;
+        return c;
+      }
+
+      std::filesystem::path csv() const { return dir_ / (name + std::string(".csv")); }
+
+      void discard(const std::string &why)
+      {
+        say_("discarded the kept fits in " + csv().string() + ": " + why);
+        for (const char *ext : {".csv", ".json"})
+          std::filesystem::remove(dir_ / (name + std::string(ext)));
+      }
+
+      void open()
+      {
+        ensure_directory(dir_);
+        file_.emplace(dir_, name, fingerprint_, "fit");
+      }
+
+      std::filesystem::path                                   dir_;
+      nlohmann::json                                          fingerprint_;
+      std::function<void(const std::string &)>                say_;
+      std::optional<Checkpoint>                               file_;
+      std::map<std::pair<int, std::string>, CandidateResult>  kept_;
+    };
+  } // namespace
+
   DiagnosisResult diagnose(const system::SystemParameters &base_in, const system::ValveMaps &map,
                            std::vector<RunCase> runs, const DiagnoseOptions &options)
   {
@@ -2515,6 +2696,12 @@ namespace rectify::diagnosis
     }
     std::vector<Signals> current = result.before;
     std::vector<Signals> baseline_prediction; // the first round's baseline fit ("none")
+    std::optional<FitStore> store; // the candidates' fits, kept as each ends
+    if (!options.checkpoint_dir.empty())
+      store.emplace(options, [&](const std::string &line) {
+        if (options.progress)
+          options.progress(line);
+      });
     std::vector<std::string> named;
 
     for (int round = 0; round < std::max(1, options.rounds); ++round)
@@ -2538,7 +2725,7 @@ namespace rectify::diagnosis
         std::vector<CandidateResult>      fitted(todo.size());
         std::vector<std::vector<Signals>> predictions(todo.size());
         std::mutex                        mutex; // for the progress lines
-        const auto                        report = [&](const CandidateResult &c) {
+        const auto                        report = [&](const CandidateResult &c, bool kept = false) {
           if (!options.progress)
             return;
           std::lock_guard lock(mutex);
@@ -2554,6 +2741,8 @@ namespace rectify::diagnosis
                             c.ringing_runs, c.ringing_time_s);
               line += buf + c.ringing_note;
             }
+          if (kept)
+            line += " (kept by the interrupted run: not fitted again)";
           options.progress(line);
         };
         // a progress line of the named fit's later steps (printf's format)
@@ -2617,6 +2806,8 @@ namespace rectify::diagnosis
             fitted[0].evaluations += before;
           }
         report(fitted[0]);
+        if (store)
+          store->check_none(round, fitted[0]);
         // the candidates with a ringing search first: the longest fits
         // (hundreds of short runs, batched on every core) start while the
         // others share what is left
@@ -2634,7 +2825,29 @@ namespace rectify::diagnosis
           ev.run_threads       = 1;
           ev.reference         = &current;
           ev.batch_threads     = cores;
-          fitted[i]            = fit(ev, predictions[i]);
+          if (const auto kept = store ? store->find(round, todo[i]->name()) : std::nullopt)
+            {
+              // as fit() ends: its predictions made again from its point
+              fitted[i] = *kept;
+              try
+                {
+                  predictions[i] = simulate_all(ev.parameters(kept->u), ev.map, ev.runs,
+                                                ev.options.relative_tolerance, ev.run_threads);
+                }
+              catch (const std::exception &)
+                {
+                  // they failed then too: the kept fit says so (failed, message)
+                }
+              {
+                std::lock_guard lock(mutex);
+                result.resumed.push_back("round " + std::to_string(round + 1) + ": " + kept->effect);
+              }
+              report(fitted[i], true);
+              return;
+            }
+          fitted[i] = fit(ev, predictions[i]);
+          if (store)
+            store->keep(round, fitted[i]);
           report(fitted[i]);
         });
 
@@ -3537,6 +3750,19 @@ namespace rectify::diagnosis
     return result;
   }
 
+  std::size_t kept_fits(const std::filesystem::path &dir)
+  {
+    std::ifstream in(dir / (FitStore::name + std::string(".csv")));
+    const auto    lines = std::count(std::istreambuf_iterator<char>(in), {}, '\n'); // whole rows
+    return lines > 1 ? static_cast<std::size_t>(lines - 1) : 0;                      // not the header
+  }
+
+  void remove_checkpoint(const std::filesystem::path &dir)
+  {
+    for (const char *ext : {".csv", ".json"})
+      std::filesystem::remove(dir / (FitStore::name + std::string(ext)));
+  }
+
   nlohmann::json to_json(const DiagnosisResult &r, const std::vector<RunCase> &runs)
   {
     using nlohmann::json;
@@ -3794,6 +4020,7 @@ namespace rectify::diagnosis
             {"residual_baseline_fit", r.residual_baseline},
             {"baseline_standard_error_factor", r.baseline_sd_factor},
             {"compared_cycles_per_run", r.compared_cycles_per_run},
+            {"resumed_fits", r.resumed},
             {"baseline", first.baseline},
             {"baseline_fit", rounds.front()["baseline_fit"]},
             {"freed_at_the_named_fit", rounds.front()["freed_at_the_named_fit"]},

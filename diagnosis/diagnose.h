@@ -133,6 +133,16 @@ namespace rectify::diagnosis
     unsigned            threads = 0;               ///< 0: all cores
     int                 rounds  = 1;               ///< 2: look for a second effect
     std::function<void(const std::string &)> progress; ///< one line per finished candidate, named fit refit, left-out try and profile
+    /// Where each candidate's fit is kept the moment it ends (a folder:
+    /// DIR/diagnosis-partial.csv and .json, common/checkpoint.h; empty:
+    /// nowhere). A diagnosis started again with the same fingerprint takes
+    /// the fits kept there instead of fitting those candidates again: an
+    /// interrupted run resumes. The fingerprint holds what makes the fits
+    /// the same (the tool's revision, every option, the inputs' hashes); kept
+    /// fits with another are discarded, and so are they all where a round's
+    /// `none`, fitted again first, differs from the kept one in any bit.
+    std::filesystem::path checkpoint_dir;
+    nlohmann::json        checkpoint_fingerprint;
   };
 
   /// One run with its setup and normalisation.
@@ -367,6 +377,9 @@ namespace rectify::diagnosis
   struct DiagnosisResult
   {
     std::vector<RoundResult> rounds;
+    /// The candidate fits taken from DiagnoseOptions::checkpoint_dir, not
+    /// fitted again ("round 1: valve_leakage")
+    std::vector<std::string> resumed;
     system::SystemParameters final_parameters;   ///< base + named effects + gain
     std::vector<Signals>     before, after;      ///< per run, whole records
     std::map<std::string, double> residual_before, residual_after; ///< per signal + overall, noise units
@@ -528,6 +541,11 @@ namespace rectify::diagnosis
   /// Calibrates the runs' noise (calibrate_noise) and runs the workflow.
   DiagnosisResult diagnose(const system::SystemParameters &base, const system::ValveMaps &map,
                            std::vector<RunCase> runs, const DiagnoseOptions &options);
+
+  /// The fits DiagnoseOptions::checkpoint_dir holds (whole rows), and
+  /// their removal (the diagnosis's results are written)
+  std::size_t kept_fits(const std::filesystem::path &dir);
+  void        remove_checkpoint(const std::filesystem::path &dir);
 
   /// summary.json's content.
   nlohmann::json to_json(const DiagnosisResult &result, const std::vector<RunCase> &runs);

@@ -5,7 +5,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <fcntl.h>
 #include <random>
+#include <regex>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
 #include <string>
 
 #include "common/case_file.h"
@@ -871,6 +876,143 @@ TEST(Diagnosis, TheThreadCountChangesTheTimeNotTheResult)
   strip(two);
   const auto differences = nlohmann::json::diff(one, two);
   EXPECT_TRUE(differences.empty()) << differences.dump(1);
+}
+
+// A diagnosis killed part-way keeps each candidate's fit that had ended
+// (OUT/diagnosis-partial.csv); the same command again takes those fits
+// instead of fitting them again and ends as an uninterrupted run does. Kept
+// fits of another command, or whose none the new run fits otherwise, are
+// discarded.
+TEST(Diagnosis, AKilledDiagnosisResumesFromTheFitsItKeptAndEndsAsAnUninterruptedOne)
+{
+  const auto dir = scratch("diagnose_resume");
+  auto       r   = rectify_cli("synth --effect valve_leakage --param leak_resistance_Pa_s_per_m3=5e11 "
+                               "--noise 0.01 --seed 11 --frequency 100 --cycles 12 --out " + (dir / "data").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto data = dir / "data" / "data.csv";
+  const std::string extra = "--reed-second-mode case --max-evaluations 12 --threads 2 "
+                            "--effects valve_leakage entrained_air outlet_compliance";
+  const auto command = [&](const std::filesystem::path &out) {
+    return "diagnose --data " + data.string() + " " + extra + " --out " + out.string();
+  };
+  const auto lines = [](const std::filesystem::path &file) { // whole lines: a row being written is not one yet
+    std::ifstream in(file);
+    return static_cast<std::size_t>(std::count(std::istreambuf_iterator<char>(in), {}, '\n'));
+  };
+  // Killed once `rows` lines (the header, none's fit, then candidates') are kept
+  const auto killed = [&](const std::filesystem::path &out, std::size_t rows) {
+    std::vector<std::string> argv; // the command's words (no path here holds a space)
+    std::istringstream       words(command(out));
+    for (std::string w; words >> w;)
+      argv.push_back(w);
+    std::vector<char *> c_argv;
+    c_argv.push_back(const_cast<char *>(RECTIFY_BINARY));
+    for (auto &a : argv)
+      c_argv.push_back(a.data());
+    c_argv.push_back(nullptr);
+    const pid_t pid = ::fork();
+    if (pid == 0)
+      {
+        const int null = ::open("/dev/null", O_WRONLY);
+        ::dup2(null, 1);
+        ::dup2(null, 2);
+        ::execv(RECTIFY_BINARY, c_argv.data());
+        ::_exit(127);
+      }
+    const auto kept = out / "diagnosis-partial.csv";
+    int        status = 0;
+    bool       ended  = false;
+    for (int i = 0; i < 60000 && lines(kept) < rows; ++i)
+      {
+        if (::waitpid(pid, &status, WNOHANG) == pid)
+          {
+            ended = true;
+            break;
+          }
+        ::usleep(1000);
+      }
+    if (!ended)
+      {
+        ::kill(pid, SIGKILL);
+        ::waitpid(pid, &status, 0);
+      }
+    return !ended && lines(kept) >= rows;
+  };
+  const auto strip = [](nlohmann::json j) {
+    std::function<void(nlohmann::json &)> go = [&](nlohmann::json &x) {
+      if (x.is_object())
+        {
+          for (auto it = x.begin(); it != x.end();)
+            if (it.key().size() > 6 && it.key().ends_with("time_s"))
+              it = x.erase(it);
+            else
+              go(*it++);
+          x.erase("runs_evaluated_ahead");
+          x.erase("resumed_fits");
+        }
+      else if (x.is_array())
+        for (auto &y : x)
+          go(y);
+    };
+    go(j);
+    return j;
+  };
+
+  const auto whole = diagnose_summary(data, extra, dir / "whole");
+  ASSERT_FALSE(whole.is_null());
+  EXPECT_EQ(whole["effect"], "valve_leakage") << whole["decision"];
+  EXPECT_TRUE(whole["resumed_fits"].empty());
+  EXPECT_FALSE(std::filesystem::exists(dir / "whole" / "diagnosis-partial.csv")); // complete: removed
+  EXPECT_FALSE(std::filesystem::exists(dir / "whole" / "diagnosis-partial.json"));
+
+  // killed with none's fit and one candidate's kept
+  ASSERT_TRUE(killed(dir / "resumed", 3)) << "the run ended before two fits were kept";
+  EXPECT_FALSE(std::filesystem::exists(dir / "resumed" / "summary.json"));
+  const std::size_t kept = lines(dir / "resumed" / "diagnosis-partial.csv") - 2; // the header and none
+  std::filesystem::copy(dir / "resumed", dir / "tampered");
+  std::filesystem::copy(dir / "resumed", dir / "other");
+
+  r = rectify_cli(command(dir / "resumed"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("resuming: " + std::to_string(kept + 1) + " fit(s)"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("(kept by the interrupted run: not fitted again)"), std::string::npos) << r.output;
+  const auto resumed = nlohmann::json::parse(std::ifstream(dir / "resumed" / "summary.json"));
+  EXPECT_EQ(resumed["resumed_fits"].size(), kept) << resumed["resumed_fits"];
+  EXPECT_FALSE(std::filesystem::exists(dir / "resumed" / "diagnosis-partial.csv"));
+  const auto differences = nlohmann::json::diff(strip(whole), strip(resumed));
+  EXPECT_TRUE(differences.empty()) << differences.dump(1);
+  const auto text = [](const std::filesystem::path &f) {
+    std::ifstream     in(f);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+  };
+  EXPECT_EQ(text(dir / "whole" / "case-with-valve_leakage.toml"),
+            text(dir / "resumed" / "case-with-valve_leakage.toml"));
+
+  // none's kept fit changed by one bit: every kept fit is discarded
+  {
+    std::string csv = text(dir / "tampered" / "diagnosis-partial.csv");
+    const auto  at  = csv.find("\"bic\":\"0x");
+    ASSERT_NE(at, std::string::npos);
+    const auto end = csv.find('"', at + 7);
+    csv[end - 1]   = csv[end - 1] == '1' ? '2' : '1'; // the last hex digit of the first row's (none's) BIC
+    std::ofstream(dir / "tampered" / "diagnosis-partial.csv") << csv;
+  }
+  r = rectify_cli(command(dir / "tampered"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("its none fitted otherwise"), std::string::npos) << r.output;
+  const auto tampered = nlohmann::json::parse(std::ifstream(dir / "tampered" / "summary.json"));
+  EXPECT_TRUE(tampered["resumed_fits"].empty()) << tampered["resumed_fits"];
+  EXPECT_TRUE(nlohmann::json::diff(strip(whole), strip(tampered)).empty());
+
+  // another command (one evaluation fewer per candidate): discarded
+  r = rectify_cli(std::regex_replace(command(dir / "other"), std::regex("--max-evaluations 12"),
+                                     "--max-evaluations 11"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("another diagnosis's"), std::string::npos) << r.output;
+  const auto other = nlohmann::json::parse(std::ifstream(dir / "other" / "summary.json"));
+  EXPECT_TRUE(other["resumed_fits"].empty()) << other["resumed_fits"];
 }
 
 // The candidates are compared on at most DiagnoseOptions::compared_cycles
