@@ -2476,7 +2476,15 @@ namespace rectify::diagnosis
       return buf;
     }
 
-    double exact(const nlohmann::json &j) { return std::strtod(j.get<std::string>().c_str(), nullptr); }
+    double exact(const nlohmann::json &j)
+    {
+      const auto   text = j.get<std::string>();
+      char        *end  = nullptr;
+      const double v    = std::strtod(text.c_str(), &end);
+      if (text.empty() || *end != '\0')
+        throw std::runtime_error("'" + text + "' is not a number");
+      return v;
+    }
 
     nlohmann::json kept_fit(int round, const CandidateResult &c)
     {

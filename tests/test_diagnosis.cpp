@@ -971,6 +971,7 @@ TEST(Diagnosis, AKilledDiagnosisResumesFromTheFitsItKeptAndEndsAsAnUninterrupted
   const std::size_t kept = lines(dir / "resumed" / "diagnosis-partial.csv") - 2; // the header and none
   std::filesystem::copy(dir / "resumed", dir / "tampered");
   std::filesystem::copy(dir / "resumed", dir / "other");
+  std::filesystem::copy(dir / "resumed", dir / "damaged");
 
   r = rectify_cli(command(dir / "resumed"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
@@ -1005,6 +1006,21 @@ TEST(Diagnosis, AKilledDiagnosisResumesFromTheFitsItKeptAndEndsAsAnUninterrupted
   const auto tampered = nlohmann::json::parse(std::ifstream(dir / "tampered" / "summary.json"));
   EXPECT_TRUE(tampered["resumed_fits"].empty()) << tampered["resumed_fits"];
   EXPECT_TRUE(nlohmann::json::diff(strip(whole), strip(tampered)).empty());
+
+  // a kept candidate's number damaged (not a hexadecimal float): every kept fit is discarded
+  {
+    std::string csv = text(dir / "damaged" / "diagnosis-partial.csv");
+    const auto  at  = csv.rfind("\"bic\":\"");
+    ASSERT_NE(at, std::string::npos);
+    csv.replace(at + 7, 2, "0q"); // "0x..." of the last row's (a candidate's) BIC
+    std::ofstream(dir / "damaged" / "diagnosis-partial.csv") << csv;
+  }
+  r = rectify_cli(command(dir / "damaged"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("unreadable ("), std::string::npos) << r.output;
+  const auto damaged = nlohmann::json::parse(std::ifstream(dir / "damaged" / "summary.json"));
+  EXPECT_TRUE(damaged["resumed_fits"].empty()) << damaged["resumed_fits"];
+  EXPECT_TRUE(nlohmann::json::diff(strip(whole), strip(damaged)).empty());
 
   // another command (one evaluation fewer per candidate): discarded
   r = rectify_cli(std::regex_replace(command(dir / "other"), std::regex("--max-evaluations 12"),
