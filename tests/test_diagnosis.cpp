@@ -835,6 +835,33 @@ TEST(Diagnosis, SoftSealIsRecoveredAfterRescalingTheResidualWithTheFittedModel)
     EXPECT_LT(value.get<double>(), 2.0) << signal;
 }
 
+namespace
+{
+  /// A diagnosis's summary.json without what depends on the time and the
+  /// cores a run had: its times, the runs evaluated ahead on an idle core,
+  /// the fits taken from an interrupted run
+  nlohmann::json without_timing(nlohmann::json j)
+  {
+    std::function<void(nlohmann::json &)> go = [&](nlohmann::json &x) {
+      if (x.is_object())
+        {
+          for (auto it = x.begin(); it != x.end();)
+            if (it.key().size() > 6 && it.key().ends_with("time_s"))
+              it = x.erase(it);
+            else
+              go(*it++);
+          x.erase("runs_evaluated_ahead");
+          x.erase("resumed_fits");
+        }
+      else if (x.is_array())
+        for (auto &y : x)
+          go(y);
+    };
+    go(j);
+    return j;
+  }
+} // namespace
+
 // The thread count changes a diagnosis's time, not its result. The
 // candidates fitted at once are folded in their order; a search that runs
 // alone (a refit, a profile's side) has its first points evaluated ahead on
@@ -857,24 +884,7 @@ TEST(Diagnosis, TheThreadCountChangesTheTimeNotTheResult)
   EXPECT_EQ(one["effect"], "outlet_compliance") << one["decision"];
   EXPECT_EQ(one["runs_evaluated_ahead"].get<int>(), 0);
   EXPECT_GT(two["runs_evaluated_ahead"].get<int>(), 0);
-  // the times and what depends on the cores, taken out
-  std::function<void(nlohmann::json &)> strip = [&](nlohmann::json &j) {
-    if (j.is_object())
-      {
-        for (auto it = j.begin(); it != j.end();)
-          if (it.key().size() > 6 && it.key().ends_with("time_s"))
-            it = j.erase(it);
-          else
-            strip(*it++);
-        j.erase("runs_evaluated_ahead");
-      }
-    else if (j.is_array())
-      for (auto &x : j)
-        strip(x);
-  };
-  strip(one);
-  strip(two);
-  const auto differences = nlohmann::json::diff(one, two);
+  const auto differences = nlohmann::json::diff(without_timing(one), without_timing(two));
   EXPECT_TRUE(differences.empty()) << differences.dump(1);
 }
 
@@ -938,25 +948,6 @@ TEST(Diagnosis, AKilledDiagnosisResumesFromTheFitsItKeptAndEndsAsAnUninterrupted
       }
     return !ended && lines(kept) >= rows;
   };
-  const auto strip = [](nlohmann::json j) {
-    std::function<void(nlohmann::json &)> go = [&](nlohmann::json &x) {
-      if (x.is_object())
-        {
-          for (auto it = x.begin(); it != x.end();)
-            if (it.key().size() > 6 && it.key().ends_with("time_s"))
-              it = x.erase(it);
-            else
-              go(*it++);
-          x.erase("runs_evaluated_ahead");
-          x.erase("resumed_fits");
-        }
-      else if (x.is_array())
-        for (auto &y : x)
-          go(y);
-    };
-    go(j);
-    return j;
-  };
 
   const auto whole = diagnose_summary(data, extra, dir / "whole");
   ASSERT_FALSE(whole.is_null());
@@ -980,7 +971,7 @@ TEST(Diagnosis, AKilledDiagnosisResumesFromTheFitsItKeptAndEndsAsAnUninterrupted
   const auto resumed = nlohmann::json::parse(std::ifstream(dir / "resumed" / "summary.json"));
   EXPECT_EQ(resumed["resumed_fits"].size(), kept) << resumed["resumed_fits"];
   EXPECT_FALSE(std::filesystem::exists(dir / "resumed" / "diagnosis-partial.csv"));
-  const auto differences = nlohmann::json::diff(strip(whole), strip(resumed));
+  const auto differences = nlohmann::json::diff(without_timing(whole), without_timing(resumed));
   EXPECT_TRUE(differences.empty()) << differences.dump(1);
   const auto text = [](const std::filesystem::path &f) {
     std::ifstream     in(f);
@@ -1005,7 +996,7 @@ TEST(Diagnosis, AKilledDiagnosisResumesFromTheFitsItKeptAndEndsAsAnUninterrupted
   EXPECT_NE(r.output.find("its none fitted otherwise"), std::string::npos) << r.output;
   const auto tampered = nlohmann::json::parse(std::ifstream(dir / "tampered" / "summary.json"));
   EXPECT_TRUE(tampered["resumed_fits"].empty()) << tampered["resumed_fits"];
-  EXPECT_TRUE(nlohmann::json::diff(strip(whole), strip(tampered)).empty());
+  EXPECT_TRUE(nlohmann::json::diff(without_timing(whole), without_timing(tampered)).empty());
 
   // a kept candidate's number damaged (not a hexadecimal float): every kept fit is discarded
   {
@@ -1020,7 +1011,7 @@ TEST(Diagnosis, AKilledDiagnosisResumesFromTheFitsItKeptAndEndsAsAnUninterrupted
   EXPECT_NE(r.output.find("unreadable ("), std::string::npos) << r.output;
   const auto damaged = nlohmann::json::parse(std::ifstream(dir / "damaged" / "summary.json"));
   EXPECT_TRUE(damaged["resumed_fits"].empty()) << damaged["resumed_fits"];
-  EXPECT_TRUE(nlohmann::json::diff(strip(whole), strip(damaged)).empty());
+  EXPECT_TRUE(nlohmann::json::diff(without_timing(whole), without_timing(damaged)).empty());
 
   // another command (one evaluation fewer per candidate): discarded
   r = rectify_cli(std::regex_replace(command(dir / "other"), std::regex("--max-evaluations 12"),
