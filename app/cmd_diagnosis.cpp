@@ -95,7 +95,7 @@ namespace rectify::app
       bool                       second       = false;
       bool                       ideal_sensors = false;
       diagnosis::DiagnoseOptions options;
-      std::string                settings; ///< every option's value, as CLI11 writes a config file
+      std::string                settings; ///< every option's value but --out's, as CLI11 writes a config file
     };
 
     std::string sci(double v)
@@ -226,14 +226,9 @@ namespace rectify::app
         nlohmann::json data_hashes = nlohmann::json::array();
         for (const auto &d : o.data)
           data_hashes.push_back(file_hash(d));
-        std::string        settings; // every option but the folder the fits are kept in
-        std::istringstream lines(o.settings);
-        for (std::string line; std::getline(lines, line);)
-          if (!line.starts_with("out=") && !line.starts_with("out ="))
-            settings += line + "\n";
         o.options.checkpoint_fingerprint = {{"revision", source_revision()},
                                             {"version", RECTIFY_VERSION},
-                                            {"settings", settings},
+                                            {"settings", o.settings},
                                             {"case", file_hash(o.case_path)},
                                             {"data", data_hashes}};
       }
@@ -631,6 +626,8 @@ namespace rectify::app
       auto cmd = app.add_subcommand(
         "diagnose", "compare measured runs with the model, name the missing effect, add it, refit");
       add_case_and_out(*cmd, o->case_path, o->out_dir);
+      // the folder is not one of the settings a resumed run must share (its fits are kept there)
+      cmd->get_option("--out")->configurable(false);
       cmd->add_option("--data", o->data, "measured runs (CSV: time_s, current_A or voltage_V, outlet_pressure_Pa, ...)")
         ->required();
       cmd->add_option("--scenario", o->scenario, "no-flow or loaded (all runs)")

@@ -2548,6 +2548,13 @@ namespace rectify::diagnosis
       return c;
     }
 
+    constexpr const char *kept_fits_name = "diagnosis-partial"; // DIR/NAME.csv and NAME.json
+
+    std::filesystem::path kept_fits_file(const std::filesystem::path &dir, const char *ext)
+    {
+      return dir / (kept_fits_name + std::string(ext));
+    }
+
     // The candidates' fits kept as each ends (DiagnoseOptions::checkpoint_dir),
     // and those an interrupted run of the same diagnosis kept. The fits of
     // one round are independent of each other and of the cores they ran on:
@@ -2561,7 +2568,7 @@ namespace rectify::diagnosis
         , fingerprint_(o.checkpoint_fingerprint)
         , say_(say)
       {
-        if (Checkpoint::holds_other(dir_, name, fingerprint_))
+        if (Checkpoint::holds_other(dir_, kept_fits_name, fingerprint_))
           discard("another diagnosis's (other settings, inputs or revision)");
         open();
         for (const auto &row : file_->finished_rows())
@@ -2583,7 +2590,7 @@ namespace rectify::diagnosis
           }
         if (!kept_.empty())
           say_("resuming: " + std::to_string(kept_.size()) + " fit(s) of an interrupted run of this diagnosis kept in " +
-               csv().string());
+               kept_fits_file(dir_, ".csv").string());
       }
 
       /// The fit of `effect` kept in `round`, if any
@@ -2617,8 +2624,6 @@ namespace rectify::diagnosis
           }
       }
 
-      static constexpr const char *name = "diagnosis-partial";
-
     private:
       static CandidateResult with_time(CandidateResult c, double t)
       {
@@ -2626,19 +2631,16 @@ namespace rectify::diagnosis
         return c;
       }
 
-      std::filesystem::path csv() const { return dir_ / (name + std::string(".csv")); }
-
       void discard(const std::string &why)
       {
-        say_("discarded the kept fits in " + csv().string() + ": " + why);
-        for (const char *ext : {".csv", ".json"})
-          std::filesystem::remove(dir_ / (name + std::string(ext)));
+        say_("discarded the kept fits in " + kept_fits_file(dir_, ".csv").string() + ": " + why);
+        remove_checkpoint(dir_);
       }
 
       void open()
       {
         ensure_directory(dir_);
-        file_.emplace(dir_, name, fingerprint_, "fit");
+        file_.emplace(dir_, kept_fits_name, fingerprint_, "fit");
       }
 
       std::filesystem::path                                   dir_;
@@ -2858,6 +2860,7 @@ namespace rectify::diagnosis
             store->keep(round, fitted[i]);
           report(fitted[i]);
         });
+        std::sort(result.resumed.begin(), result.resumed.end()); // in no order the cores set
 
         const CandidateResult &none = fitted[0];
         // rank the effects by BIC
@@ -3760,7 +3763,7 @@ namespace rectify::diagnosis
 
   std::size_t kept_fits(const std::filesystem::path &dir)
   {
-    std::ifstream in(dir / (FitStore::name + std::string(".csv")));
+    std::ifstream in(kept_fits_file(dir, ".csv"));
     const auto    lines = std::count(std::istreambuf_iterator<char>(in), {}, '\n'); // whole rows
     return lines > 1 ? static_cast<std::size_t>(lines - 1) : 0;                      // not the header
   }
@@ -3768,7 +3771,7 @@ namespace rectify::diagnosis
   void remove_checkpoint(const std::filesystem::path &dir)
   {
     for (const char *ext : {".csv", ".json"})
-      std::filesystem::remove(dir / (FitStore::name + std::string(ext)));
+      std::filesystem::remove(kept_fits_file(dir, ext));
   }
 
   nlohmann::json to_json(const DiagnosisResult &r, const std::vector<RunCase> &runs)

@@ -24,16 +24,22 @@ namespace rectify::test_support
     std::string output;
   };
 
+  /// A file's whole text ("" where it cannot be read)
+  inline std::string read_text(const std::filesystem::path &file)
+  {
+    std::ifstream     in(file);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+  }
+
   inline Command rectify_cli(const std::string &args)
   {
     const auto  log = std::filesystem::temp_directory_path() /
                      ("rectify_cli_" + std::to_string(::getpid()) + ".log"); // ctest runs tests in parallel
     const std::string cmd = std::string(RECTIFY_BINARY) + " " + args + " > " + log.string() + " 2>&1";
     const int   status = std::system(cmd.c_str());
-    std::ifstream in(log);
-    std::stringstream s;
-    s << in.rdbuf();
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, s.str()};
+    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, read_text(log)};
   }
 
   inline std::filesystem::path scratch(const std::string &name)
@@ -81,13 +87,7 @@ namespace rectify::test_support
            "tolerance = " + tolerance + "\n";
   }
 
-  inline std::string reference_text()
-  {
-    std::ifstream     in(reference_case_path());
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-  }
+  inline std::string reference_text() { return read_text(reference_case_path()); }
 
   inline std::string replace(std::string text, const std::string &from, const std::string &to)
   {

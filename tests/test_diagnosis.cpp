@@ -973,45 +973,36 @@ TEST(Diagnosis, AKilledDiagnosisResumesFromTheFitsItKeptAndEndsAsAnUninterrupted
   EXPECT_FALSE(std::filesystem::exists(dir / "resumed" / "diagnosis-partial.csv"));
   const auto differences = nlohmann::json::diff(without_timing(whole), without_timing(resumed));
   EXPECT_TRUE(differences.empty()) << differences.dump(1);
-  const auto text = [](const std::filesystem::path &f) {
-    std::ifstream     in(f);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
+  EXPECT_EQ(read_text(dir / "whole" / "case-with-valve_leakage.toml"),
+            read_text(dir / "resumed" / "case-with-valve_leakage.toml"));
+
+  // A copy of the killed run's folder with its kept rows edited, run again:
+  // every kept fit is discarded, saying why, and the result is the whole run's
+  const auto discarded = [&](const std::string &name, const std::function<void(std::string &)> &edit,
+                             const std::string &why) {
+    std::string csv = read_text(dir / name / "diagnosis-partial.csv");
+    edit(csv);
+    std::ofstream(dir / name / "diagnosis-partial.csv") << csv;
+    const auto run = rectify_cli(command(dir / name));
+    ASSERT_EQ(run.exit_code, 0) << run.output;
+    EXPECT_NE(run.output.find(why), std::string::npos) << run.output;
+    const auto s = nlohmann::json::parse(std::ifstream(dir / name / "summary.json"));
+    EXPECT_TRUE(s["resumed_fits"].empty()) << s["resumed_fits"];
+    EXPECT_TRUE(nlohmann::json::diff(without_timing(whole), without_timing(s)).empty()) << name;
   };
-  EXPECT_EQ(text(dir / "whole" / "case-with-valve_leakage.toml"),
-            text(dir / "resumed" / "case-with-valve_leakage.toml"));
-
-  // none's kept fit changed by one bit: every kept fit is discarded
-  {
-    std::string csv = text(dir / "tampered" / "diagnosis-partial.csv");
-    const auto  at  = csv.find("\"bic\":\"0x");
-    ASSERT_NE(at, std::string::npos);
+  // none's kept fit (the first row) changed in its BIC's last digit
+  discarded("tampered", [](std::string &csv) {
+    const auto at = csv.find("\"bic\":\"", csv.find('\n'));
+    ASSERT_NE(at, std::string::npos) << csv;
     const auto end = csv.find('"', at + 7);
-    csv[end - 1]   = csv[end - 1] == '1' ? '2' : '1'; // the last hex digit of the first row's (none's) BIC
-    std::ofstream(dir / "tampered" / "diagnosis-partial.csv") << csv;
-  }
-  r = rectify_cli(command(dir / "tampered"));
-  ASSERT_EQ(r.exit_code, 0) << r.output;
-  EXPECT_NE(r.output.find("its none fitted otherwise"), std::string::npos) << r.output;
-  const auto tampered = nlohmann::json::parse(std::ifstream(dir / "tampered" / "summary.json"));
-  EXPECT_TRUE(tampered["resumed_fits"].empty()) << tampered["resumed_fits"];
-  EXPECT_TRUE(nlohmann::json::diff(without_timing(whole), without_timing(tampered)).empty());
-
-  // a kept candidate's number damaged (not a hexadecimal float): every kept fit is discarded
-  {
-    std::string csv = text(dir / "damaged" / "diagnosis-partial.csv");
-    const auto  at  = csv.rfind("\"bic\":\"");
-    ASSERT_NE(at, std::string::npos);
-    csv.replace(at + 7, 2, "0q"); // "0x..." of the last row's (a candidate's) BIC
-    std::ofstream(dir / "damaged" / "diagnosis-partial.csv") << csv;
-  }
-  r = rectify_cli(command(dir / "damaged"));
-  ASSERT_EQ(r.exit_code, 0) << r.output;
-  EXPECT_NE(r.output.find("unreadable ("), std::string::npos) << r.output;
-  const auto damaged = nlohmann::json::parse(std::ifstream(dir / "damaged" / "summary.json"));
-  EXPECT_TRUE(damaged["resumed_fits"].empty()) << damaged["resumed_fits"];
-  EXPECT_TRUE(nlohmann::json::diff(without_timing(whole), without_timing(damaged)).empty());
+    csv[end - 1]   = csv[end - 1] == '1' ? '2' : '1';
+  }, "its none fitted otherwise");
+  // a kept candidate's (the last row's) BIC not a hexadecimal float: "0q..."
+  discarded("damaged", [](std::string &csv) {
+    const auto at = csv.rfind("\"bic\":\"");
+    ASSERT_NE(at, std::string::npos) << csv;
+    csv.replace(at + 7, 2, "0q");
+  }, "unreadable (");
 
   // another command (one evaluation fewer per candidate): discarded
   r = rectify_cli(std::regex_replace(command(dir / "other"), std::regex("--max-evaluations 12"),
