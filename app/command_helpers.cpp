@@ -10,6 +10,7 @@
 #include "app/commands.h"
 #include "app/main_common.h"
 #include "common/case_file.h"
+#include "system/integrator.h"
 
 namespace rectify::app
 {
@@ -113,7 +114,7 @@ namespace rectify::app
   int run_app(CLI::App &app, int argc, char **argv)
   {
     app.require_subcommand(1);
-    app.set_version_flag("--version", rectify::version_text(),
+    app.set_version_flag("--version", rectify::version_text() + "CVODE loaded from " + system::cvode_library() + "\n",
                          "Print the version, the source revision and the libraries' versions, then exit");
     add_number_checks(app);
     try

@@ -4,8 +4,11 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <climits>
 #include <cmath>
+#include <cstdlib>
 #include <cvode/cvode.h>
+#include <dlfcn.h>
 #include <nvector/nvector_serial.h>
 #include <stdexcept>
 #include <sundials/sundials_context.h>
@@ -449,5 +452,14 @@ namespace rectify::system
         if (m.system.handle_events(t_, y, found))
           m.restart(t_);
       }
+  }
+
+  std::string cvode_library()
+  {
+    Dl_info info{};
+    if (dladdr(reinterpret_cast<void *>(&CVodeCreate), &info) == 0 || info.dli_fname == nullptr)
+      return "unknown";
+    char resolved[PATH_MAX];
+    return realpath(info.dli_fname, resolved) != nullptr ? resolved : info.dli_fname;
   }
 } // namespace rectify::system

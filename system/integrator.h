@@ -103,4 +103,8 @@ namespace rectify::system
     std::unique_ptr<Impl> impl_;
     double                t_;
   };
+
+  /// The file this process loaded CVODE from: Debian's library, or the one
+  /// scripts/cvode.sh built (`rectify --version` says which).
+  std::string cvode_library();
 } // namespace rectify::system

@@ -10,6 +10,7 @@
 #include <sstream>
 #include <sys/wait.h>
 
+#include "common/io.h"
 #include "tests/cli_helpers.h"
 
 using namespace rectify;
@@ -28,6 +29,24 @@ namespace
     std::stringstream s;
     s << in.rdbuf();
     return s.str();
+  }
+
+  /// A summary without what the clock measured (every key naming a wall or
+  /// CPU time, at any depth)
+  nlohmann::json timeless(nlohmann::json j)
+  {
+    if (j.is_object())
+      {
+        for (auto it = j.begin(); it != j.end();)
+          if (it.key().find("wall_time") != std::string::npos || it.key().find("cpu_time") != std::string::npos)
+            it = j.erase(it);
+          else
+            {
+              *it = timeless(*it);
+              ++it;
+            }
+      }
+    return j;
   }
 } // namespace
 
@@ -72,6 +91,13 @@ TEST(Install, TheInstalledToolRunsFromAnyFolderOnItsOwnReferenceCase)
   const auto version = read(dir / "version.log");
   for (const char *word : {"rectify " RECTIFY_VERSION, "revision", "deal.II", "PETSc", "SUNDIALS", "TetGen", "CGAL"})
     EXPECT_NE(version.find(word), std::string::npos) << version;
+  // the CVODE built here goes along and is the one loaded (scripts/cvode.sh)
+  if (!std::string(RECTIFY_BUILT_CVODE).empty())
+    {
+      EXPECT_NE(version.find("CVODE loaded from " + std::filesystem::canonical(prefix).string() + "/"),
+                std::string::npos)
+        << version;
+    }
 
   // The finite-element commands, through the front end, from rectify-fe.
   EXPECT_TRUE(std::filesystem::exists(prefix / "bin" / "rectify-fe"));
@@ -108,5 +134,86 @@ TEST(Install, TheFrontEndLoadsNoFiniteElementLibrary)
   EXPECT_EQ(WEXITSTATUS(status), 2) << read(dir / "bad.log");
   EXPECT_NE(read(dir / "bad.log").find("missing.toml"), std::string::npos) << read(dir / "bad.log");
   EXPECT_FALSE(std::filesystem::exists(dir / "x"));
+  std::filesystem::remove_all(dir);
+}
+
+// The CVODE that scripts/cvode.sh builds from Debian's source at -O2 against
+// Debian's own library, in the same binary (the loader takes Debian's when
+// LD_LIBRARY_PATH names its folder: the tool's RUNPATH gives way to it):
+// every number of a run the same to the last bit, through valve events,
+// reinitialisations and Jacobians, with and without the effects' difference
+// quotients; only the wall times differ.
+TEST(Install, TheCvodeBuiltHereRunsAsDebiansBitForBit)
+{
+  const std::string built = RECTIFY_BUILT_CVODE;
+  if (built.empty())
+    GTEST_SKIP() << "built with Debian's CVODE (scripts/cvode.sh found no source): nothing to compare";
+  const auto dir    = scratch("cvode");
+  const auto debian = std::filesystem::path(RECTIFY_DEBIAN_CVODE);
+  const std::string as_debian = "env LD_LIBRARY_PATH=" + debian.parent_path().string() + " ";
+  const std::string tool      = RECTIFY_BINARY;
+
+  // Which library each way loads.
+  ASSERT_EQ(run(tool + " --version", dir / "built.log"), 0);
+  ASSERT_EQ(run(as_debian + tool + " --version", dir / "debian.log"), 0);
+  EXPECT_NE(read(dir / "built.log").find("CVODE loaded from " + std::filesystem::canonical(built).string()),
+            std::string::npos) << read(dir / "built.log");
+  EXPECT_NE(read(dir / "debian.log").find("CVODE loaded from " + std::filesystem::canonical(debian).string()),
+            std::string::npos) << read(dir / "debian.log");
+
+  // A case with effects of the pump's network switched on.
+  std::filesystem::copy(reference_case_path().parent_path() / "thesis-resistance.csv", dir);
+  write_file_atomic(dir / "effects.toml",
+                    replace(replace(replace(reference_text(), "free_air_fraction = 0.0", "free_air_fraction = 0.002"),
+                                    "leak_area_m2 = 0.0 ", "leak_area_m2 = 2e-9 "),
+                            "orifice_discharge_coefficient = 0.0", "orifice_discharge_coefficient = 0.6"));
+  const std::vector<std::string> runs = {
+    "simulate --scenario loaded --frequency 200 --cycles 3",
+    "simulate --scenario no-flow --frequency 100 --cycles 3",
+    "simulate --scenario loaded --frequency 150 --cycles 3 --case " + (dir / "effects.toml").string(),
+    "sweep --scenario loaded --from 50 --to 2000 --n 4 --series dynamic --quiet"};
+  for (std::size_t i = 0; i < runs.size(); ++i)
+    {
+      const auto a = dir / ("built-" + std::to_string(i)), b = dir / ("debian-" + std::to_string(i));
+      ASSERT_EQ(run(tool + " " + runs[i] + " --out " + a.string(), dir / "a.log"), 0) << read(dir / "a.log");
+      ASSERT_EQ(run(as_debian + tool + " " + runs[i] + " --out " + b.string(), dir / "b.log"), 0)
+        << read(dir / "b.log");
+      // summary.json's numbers (every double written to round-trip), the
+      // CVODE counters among them, without the times
+      // (the difference as a JSON patch: what moved, not both summaries)
+      EXPECT_EQ(nlohmann::json::diff(timeless(nlohmann::json::parse(read(a / "summary.json"))),
+                                     timeless(nlohmann::json::parse(read(b / "summary.json")))),
+                nlohmann::json::array())
+        << runs[i];
+      for (const char *table : {"timeseries.csv", "sweep.csv"})
+        if (std::filesystem::exists(a / table))
+          {
+            EXPECT_TRUE(read(a / table) == read(b / table)) << runs[i] << ": " << table << " differs";
+          }
+      if (std::filesystem::exists(a / "sweep-runs.csv"))
+        { // every column but the wall time: states, CVODE counters
+          const auto without_time = [](const std::string &text) {
+            std::istringstream in(text);
+            std::string        line, out;
+            while (std::getline(in, line))
+              {
+                std::vector<std::string> cells;
+                std::stringstream        row(line);
+                for (std::string cell; std::getline(row, cell, ',');)
+                  cells.push_back(cell);
+                if (cells.size() > 9)
+                  cells.erase(cells.begin() + 9); // wall_time_s
+                for (const auto &c : cells)
+                  out += c + ",";
+                out += "\n";
+              }
+            return out;
+          };
+          const auto ra = read(a / "sweep-runs.csv");
+          ASSERT_NE(ra.find(",wall_time_s,"), std::string::npos) << ra;
+          EXPECT_TRUE(without_time(ra) == without_time(read(b / "sweep-runs.csv")))
+            << runs[i] << ": sweep-runs.csv differs";
+        }
+    }
   std::filesystem::remove_all(dir);
 }
