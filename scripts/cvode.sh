@@ -6,7 +6,7 @@
 # source of the very version installed (libsundials-dev), through a private
 # apt source list (the system's own is not touched), and builds the CVODE
 # library alone at -O2 with -ffp-contract=off: the same C code, rounded as
-# Debian's build rounds it (tests: Integrator.TheCvodeBuiltHereRunsAsDebiansBitForBit).
+# Debian's build rounds it (tests: Install.TheCvodeBuiltHereRunsAsDebiansBitForBit).
 #   scripts/cvode.sh BUILD_DIR   -> BUILD_DIR/_deps/cvode/lib/libsundials_cvode.so
 # Prints the library's path on its last line; exits non-zero (and leaves
 # nothing half-made) when the source cannot be had: rectify then links

@@ -23,14 +23,6 @@ namespace
     return std::system((command + " > " + log.string() + " 2>&1").c_str());
   }
 
-  std::string read(const std::filesystem::path &path)
-  {
-    std::ifstream     in(path);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-  }
-
   /// A summary without what the clock measured (every key naming a wall or
   /// CPU time, at any depth)
   nlohmann::json timeless(nlohmann::json j)
@@ -56,7 +48,7 @@ TEST(Install, TheInstalledToolRunsFromAnyFolderOnItsOwnReferenceCase)
   const auto prefix = dir / "prefix";
   ASSERT_EQ(run("cmake --install " + std::string(RECTIFY_BUILD_DIR) + " --prefix " + prefix.string(), dir / "install.log"),
             0)
-    << read(dir / "install.log");
+    << read_text(dir / "install.log");
   const auto tool = prefix / "bin" / "rectify";
   ASSERT_TRUE(std::filesystem::exists(tool));
   EXPECT_TRUE(std::filesystem::exists(prefix / "share" / "rectify" / "cases" / "reference.toml"));
@@ -67,7 +59,7 @@ TEST(Install, TheInstalledToolRunsFromAnyFolderOnItsOwnReferenceCase)
   const auto elsewhere = dir / "elsewhere";
   std::filesystem::create_directories(elsewhere);
   const std::string in_elsewhere = "cd " + elsewhere.string() + " && env -u RECTIFY_DATA_DIR " + tool.string();
-  ASSERT_EQ(run(in_elsewhere + " check --out check", dir / "check.log"), 0) << read(dir / "check.log");
+  ASSERT_EQ(run(in_elsewhere + " check --out check", dir / "check.log"), 0) << read_text(dir / "check.log");
   std::ifstream check_in(elsewhere / "check" / "summary.json");
   const auto    check = nlohmann::json::parse(check_in);
   const auto    used  = check["case"].get<std::string>();
@@ -75,11 +67,11 @@ TEST(Install, TheInstalledToolRunsFromAnyFolderOnItsOwnReferenceCase)
   ASSERT_GE(check["default_case_search"].size(), 2u);
   EXPECT_EQ(check["default_case_search"][0]["path"].get<std::string>().rfind(prefix.string(), 0), 0u);
   EXPECT_TRUE(check["default_case_search"][0]["exists"].get<bool>());
-  EXPECT_NE(read(dir / "check.log").find("looked for in this order"), std::string::npos);
+  EXPECT_NE(read_text(dir / "check.log").find("looked for in this order"), std::string::npos);
 
   // A short simulation from there, on the installed case and its R(x) map.
   ASSERT_EQ(run(in_elsewhere + " simulate --scenario no-flow --frequency 50 --cycles 1 --out sim", dir / "sim.log"), 0)
-    << read(dir / "sim.log");
+    << read_text(dir / "sim.log");
   std::ifstream sim_in(elsewhere / "sim" / "summary.json");
   const auto    sim = nlohmann::json::parse(sim_in);
   EXPECT_GT(sim["stored_pressure_Pa"].get<double>(), 0);
@@ -88,7 +80,7 @@ TEST(Install, TheInstalledToolRunsFromAnyFolderOnItsOwnReferenceCase)
 
   // --version: the version, the revision and the libraries.
   ASSERT_EQ(run(tool.string() + " --version", dir / "version.log"), 0);
-  const auto version = read(dir / "version.log");
+  const auto version = read_text(dir / "version.log");
   for (const char *word : {"rectify " RECTIFY_VERSION, "revision", "deal.II", "PETSc", "SUNDIALS", "TetGen", "CGAL"})
     EXPECT_NE(version.find(word), std::string::npos) << version;
   // the CVODE built here goes along and is the one loaded (scripts/cvode.sh)
@@ -101,8 +93,8 @@ TEST(Install, TheInstalledToolRunsFromAnyFolderOnItsOwnReferenceCase)
 
   // The finite-element commands, through the front end, from rectify-fe.
   EXPECT_TRUE(std::filesystem::exists(prefix / "bin" / "rectify-fe"));
-  ASSERT_EQ(run(in_elsewhere + " map-stiffness --help", dir / "fe.log"), 0) << read(dir / "fe.log");
-  EXPECT_NE(read(dir / "fe.log").find("--thickness"), std::string::npos) << read(dir / "fe.log");
+  ASSERT_EQ(run(in_elsewhere + " map-stiffness --help", dir / "fe.log"), 0) << read_text(dir / "fe.log");
+  EXPECT_NE(read_text(dir / "fe.log").find("--thickness"), std::string::npos) << read_text(dir / "fe.log");
   std::filesystem::remove_all(dir);
 }
 
@@ -115,7 +107,7 @@ TEST(Install, TheFrontEndLoadsNoFiniteElementLibrary)
   const auto fe = front_end.parent_path() / "rectify-fe";
   ASSERT_EQ(run("ldd " + front_end.string(), dir / "front.log"), 0);
   ASSERT_EQ(run("ldd " + fe.string(), dir / "fe.log"), 0);
-  const auto front = read(dir / "front.log"), back = read(dir / "fe.log");
+  const auto front = read_text(dir / "front.log"), back = read_text(dir / "fe.log");
   for (const char *library : {"libdeal.ii", "libpetsc", "libmpi", "libtet", "libslepc", "libopenblas"})
     EXPECT_EQ(front.find(library), std::string::npos) << library << " in\n" << front;
   for (const char *library : {"libdeal.ii", "libtet"})
@@ -125,14 +117,14 @@ TEST(Install, TheFrontEndLoadsNoFiniteElementLibrary)
   // An FE command given to the front end runs in rectify-fe with the same
   // arguments and exit code; the help names `rectify`.
   EXPECT_EQ(run(front_end.string() + " stokes --help", dir / "help.log"), 0);
-  const auto help = read(dir / "help.log");
+  const auto help = read_text(dir / "help.log");
   EXPECT_NE(help.find("--flow-rate"), std::string::npos) << help;
   EXPECT_EQ(help.find("rectify-fe stokes"), std::string::npos) << help;
   const int status = run(front_end.string() + " stiffness --case " + (dir / "missing.toml").string() +
                           " --out " + (dir / "x").string(), dir / "bad.log");
   ASSERT_TRUE(WIFEXITED(status));
-  EXPECT_EQ(WEXITSTATUS(status), 2) << read(dir / "bad.log");
-  EXPECT_NE(read(dir / "bad.log").find("missing.toml"), std::string::npos) << read(dir / "bad.log");
+  EXPECT_EQ(WEXITSTATUS(status), 2) << read_text(dir / "bad.log");
+  EXPECT_NE(read_text(dir / "bad.log").find("missing.toml"), std::string::npos) << read_text(dir / "bad.log");
   EXPECT_FALSE(std::filesystem::exists(dir / "x"));
   std::filesystem::remove_all(dir);
 }
@@ -156,10 +148,10 @@ TEST(Install, TheCvodeBuiltHereRunsAsDebiansBitForBit)
   // Which library each way loads.
   ASSERT_EQ(run(tool + " --version", dir / "built.log"), 0);
   ASSERT_EQ(run(as_debian + tool + " --version", dir / "debian.log"), 0);
-  EXPECT_NE(read(dir / "built.log").find("CVODE loaded from " + std::filesystem::canonical(built).string()),
-            std::string::npos) << read(dir / "built.log");
-  EXPECT_NE(read(dir / "debian.log").find("CVODE loaded from " + std::filesystem::canonical(debian).string()),
-            std::string::npos) << read(dir / "debian.log");
+  EXPECT_NE(read_text(dir / "built.log").find("CVODE loaded from " + std::filesystem::canonical(built).string()),
+            std::string::npos) << read_text(dir / "built.log");
+  EXPECT_NE(read_text(dir / "debian.log").find("CVODE loaded from " + std::filesystem::canonical(debian).string()),
+            std::string::npos) << read_text(dir / "debian.log");
 
   // A case with effects of the pump's network switched on.
   std::filesystem::copy(reference_case_path().parent_path() / "thesis-resistance.csv", dir);
@@ -175,43 +167,47 @@ TEST(Install, TheCvodeBuiltHereRunsAsDebiansBitForBit)
   for (std::size_t i = 0; i < runs.size(); ++i)
     {
       const auto a = dir / ("built-" + std::to_string(i)), b = dir / ("debian-" + std::to_string(i));
-      ASSERT_EQ(run(tool + " " + runs[i] + " --out " + a.string(), dir / "a.log"), 0) << read(dir / "a.log");
+      ASSERT_EQ(run(tool + " " + runs[i] + " --out " + a.string(), dir / "a.log"), 0) << read_text(dir / "a.log");
       ASSERT_EQ(run(as_debian + tool + " " + runs[i] + " --out " + b.string(), dir / "b.log"), 0)
-        << read(dir / "b.log");
+        << read_text(dir / "b.log");
       // summary.json's numbers (every double written to round-trip), the
       // CVODE counters among them, without the times
       // (the difference as a JSON patch: what moved, not both summaries)
-      EXPECT_EQ(nlohmann::json::diff(timeless(nlohmann::json::parse(read(a / "summary.json"))),
-                                     timeless(nlohmann::json::parse(read(b / "summary.json")))),
+      EXPECT_EQ(nlohmann::json::diff(timeless(nlohmann::json::parse(read_text(a / "summary.json"))),
+                                     timeless(nlohmann::json::parse(read_text(b / "summary.json")))),
                 nlohmann::json::array())
         << runs[i];
       for (const char *table : {"timeseries.csv", "sweep.csv"})
         if (std::filesystem::exists(a / table))
           {
-            EXPECT_TRUE(read(a / table) == read(b / table)) << runs[i] << ": " << table << " differs";
+            EXPECT_TRUE(read_text(a / table) == read_text(b / table)) << runs[i] << ": " << table << " differs";
           }
       if (std::filesystem::exists(a / "sweep-runs.csv"))
         { // every column but the wall time: states, CVODE counters
           const auto without_time = [](const std::string &text) {
-            std::istringstream in(text);
-            std::string        line, out;
+            std::istringstream       in(text);
+            std::string              line, out;
+            std::size_t              time_column = std::string::npos;
             while (std::getline(in, line))
               {
                 std::vector<std::string> cells;
                 std::stringstream        row(line);
                 for (std::string cell; std::getline(row, cell, ',');)
                   cells.push_back(cell);
-                if (cells.size() > 9)
-                  cells.erase(cells.begin() + 9); // wall_time_s
+                if (time_column == std::string::npos) // the header
+                  time_column = static_cast<std::size_t>(
+                    std::find(cells.begin(), cells.end(), "wall_time_s") - cells.begin());
+                if (time_column < cells.size())
+                  cells.erase(cells.begin() + static_cast<std::ptrdiff_t>(time_column));
                 for (const auto &c : cells)
                   out += c + ",";
                 out += "\n";
               }
             return out;
           };
-          const auto ra = read(a / "sweep-runs.csv");
+          const auto ra = read_text(a / "sweep-runs.csv");
           ASSERT_NE(ra.find(",wall_time_s,"), std::string::npos) << ra;
-          EXPECT_TRUE(without_time(ra) == without_time(read(b / "sweep-runs.csv")))
+          EXPECT_TRUE(without_time(ra) == without_time(read_text(b / "sweep-runs.csv")))
             << runs[i] << ": sweep-runs.csv differs";
         }
     }
