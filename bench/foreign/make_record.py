@@ -5,7 +5,7 @@
   /usr/bin/python3 bench/foreign/make_record.py --effect valve_leakage --seed 7 --out DIR
       [--scenario no-flow|loaded] [--frequency 100] [--cycles 16] [--value V]
       [--start rest|static|mid|random] [--noise 0.01] [--no-sensor-effects] [--nominal] [--current-pp 8]
-      [--without junction|second-mode-draw|seat|passage ...]
+      [--without junction|second-mode-draw|seat|passage|lip ...]
 
 Everything not given is drawn from the seed: the baseline parameters inside
 pump.RANGES (log-uniform), the effect's parameter inside pump.EFFECTS, the
@@ -25,13 +25,22 @@ import pump as bench  # noqa: E402
 # --without: the bench's differences from rectify's model, each taken
 # (almost) away: the inlet junction's oil to 1/100, the second mode at a
 # uniform cantilever's 6.267 x the first (drawn as before, then replaced),
-# the seat 10x stiffer, the 1 cm outlet passage's inertance to 1/100
+# the seat 10x stiffer, the 1 cm outlet passage's inertance to 1/100, the
+# seal's lip 1000x faster (its compliance then follows the high side at once)
 WITHOUT = {
     "junction": {"junction_volume_factor": 0.01},
     "second-mode-draw": {"mode2_ratio": 6.267},
     "seat": {"seat_stiffness_factor": 10.0},
     "passage": {"outlet_passage_inertance_factor": 0.01},
+    "lip": {"seal_time_constant": 1e-7},
 }
+
+# each sensor's resolution: its noise never falls below this, however
+# little its signal moves (a seated valve, a pressure that has settled)
+NOISE_FLOOR = {"current_A": 2e-3, "voltage_V": 4e-3, "outlet_pressure_Pa": 2e3, "chamber_pressure_Pa": 2e3,
+               "outlet_valve_m": 5e-8, "strain": 1e-7, "actuator_position_m": 1e-7,
+               "actuator_velocity_m_per_s": 1e-4}
+
 
 def log_uniform(rng, lo, hi):
     return math.exp(rng.uniform(math.log(lo), math.log(hi)))
@@ -77,8 +86,14 @@ def main():
                     help="one of the bench's differences from rectify's model taken (almost) away, to find which "
                          "sets a residual (docs/diagnosis.md, twenty-fourth stop); every draw stays the seed's. "
                          "Repeatable")
+    ap.add_argument("--seal-as-oil", action="store_true",
+                    help="with --effect outlet_compliance: the same rig and draws, but the seal's compliance held by "
+                         "a longer oil column in the output cylinder (wet_l + C_seal beta / (A_po xi_h)) and no seal: "
+                         "the record a no-flow rig makes if its extra compliance is oil (bench/foreign/seal_twin.py)")
     ap.add_argument("--out", required=True)
     a = ap.parse_args()
+    if a.seal_as_oil and a.effect != "outlet_compliance":
+        ap.error("--seal-as-oil needs --effect outlet_compliance")
 
     rng = np.random.default_rng(a.seed)
     truth = {"effect": a.effect, "seed": a.seed, "generator": "bench/foreign (independent of rectify's model)",
@@ -121,6 +136,12 @@ def main():
         if a.effect == "entrained_air":
             air_law = str(rng.choice(["polytropic", "constant"]))
             truth["air_law"] = air_law
+    effect = None if a.effect == "none" else a.effect
+    if a.seal_as_oil:  # every draw is made as for the seal; only the rig's physics changes
+        extra = value * P["beta"] / (P["A_po"] * P["xi_h"])
+        truth["seal_as_oil"] = {"wet_l": P["wet_l"] + extra, "extra_wet_l": extra}
+        P["wet_l"] += extra
+        effect = None
     start = a.start if a.start != "random" else str(rng.choice(["rest", "static", "mid"]))
     sensors = not a.no_sensor_effects
     parts = {x for x in a.sensor_parts.split(",") if x} if sensors else set()
@@ -160,7 +181,7 @@ def main():
     R_coil = P["R_coil"]
     drive = (lambda t: R_coil * current(t)) if voltage else current
 
-    pump = bench.Pump(P, scenario, None if a.effect == "none" else a.effect, value, air_law, drive, voltage)
+    pump = bench.Pump(P, scenario, effect, value, air_law, drive, voltage)
     n = a.cycles * a.samples_per_cycle
     t_rec_axis = t_rec + np.arange(n) / (a.samples_per_cycle * f)
     y0 = np.zeros(pump.n)
@@ -193,14 +214,9 @@ def main():
             sensor[c] = {"bandwidth_Hz": fc}
         recorded[c] = x
     outliers = []
-    # each sensor's resolution: its noise never falls below this, however
-    # little its signal moves (a seated valve, a pressure that has settled)
-    floor = {"current_A": 2e-3, "voltage_V": 4e-3, "outlet_pressure_Pa": 2e3, "chamber_pressure_Pa": 2e3,
-             "outlet_valve_m": 5e-8, "strain": 1e-7, "actuator_position_m": 1e-7,
-             "actuator_velocity_m_per_s": 1e-4}
     for c, x in recorded.items():
         rms = float(np.std(x))
-        sd = max(noise * rms, floor[c])
+        sd = max(noise * rms, NOISE_FLOOR[c])
         e = rng.normal(0, sd, len(x))
         if sensors:
             rho = rng.uniform(0.7, 0.95)
@@ -216,7 +232,8 @@ def main():
         for _ in range(int(rng.integers(1, 4))):
             c = str(rng.choice(columns[:3]))
             k = int(rng.integers(len(t_rec_axis) // 10, len(t_rec_axis)))
-            size = 10 ** rng.uniform(1, 3) * max(noise * float(np.std(recorded[c])), floor[c]) * rng.choice([-1, 1])
+            sd = max(noise * float(np.std(recorded[c])), NOISE_FLOOR[c])
+            size = 10 ** rng.uniform(1, 3) * sd * rng.choice([-1, 1])
             if "outliers" not in parts:
                 continue
             recorded[c][k] += size

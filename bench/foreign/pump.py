@@ -318,7 +318,7 @@ class Pump:
         v_act = y[i["v_act"]] if self.scenario == "loaded" else 0.0
         q_seal = 0.0
         if self.effect == "outlet_compliance":
-            tau = 1e-4
+            tau = self.P.get("seal_time_constant", 1e-4)  # make_record --without lip: 1e-7, follows at once
             q_seal = (p_h - y[i["p_seal"]]) * self.value / tau
             d[i["p_seal"]] = (p_h - y[i["p_seal"]]) / tau
         d[i["p_h"]] = (q_line - P["A_po"] * v_act - q_seal) / self.compliance(self.V_h, p_h)
