@@ -32,12 +32,22 @@ def read(d):
     for f in ("data.csv", "truth.json"):
         if not os.path.isfile(os.path.join(d, f)):
             sys.exit(f"seal_twin.py: {os.path.join(d, f)}: no such file (a record of make_record.py?)")
-    with open(os.path.join(d, "data.csv")) as fh:
+    path = os.path.join(d, "data.csv")
+    with open(path) as fh:
         rows = list(csv.reader(fh))
-    head = rows[0]
-    data = np.array([[float(v) for v in r] for r in rows[1:]])
-    with open(os.path.join(d, "truth.json")) as fh:
-        truth = json.load(fh)
+    head = rows[0] if rows else []
+    try:
+        data = np.array([[float(v) for v in r] for r in rows[1:]])
+    except ValueError as e:
+        sys.exit(f"seal_twin.py: {path}: not a record of numbers ({e})")
+    if data.ndim != 2 or data.shape[0] < 2 or data.shape[1] != len(head) or "time_s" not in head:
+        sys.exit(f"seal_twin.py: {path}: not a record (a header with time_s and rows of its length)")
+    path = os.path.join(d, "truth.json")
+    try:
+        with open(path) as fh:
+            truth = json.load(fh)
+    except json.JSONDecodeError as e:
+        sys.exit(f"seal_twin.py: {path}: not JSON ({e})")
     return {h: data[:, j] for j, h in enumerate(head)}, truth
 
 
@@ -53,6 +63,8 @@ def compare(seal_dir, oil_dir, length_max):
     b, tb = read(oil_dir)
     if ta.get("effect") != "outlet_compliance" or "seal_as_oil" not in tb or ta["seed"] != tb["seed"]:
         sys.exit(f"seal_twin.py: {seal_dir} and {oil_dir} are not a seal record and its twin of one seed")
+    if not np.array_equal(a["time_s"], b["time_s"]):
+        sys.exit(f"seal_twin.py: {seal_dir} and {oil_dir} have different time axes (--cycles alike for both?)")
     dt = a["time_s"][1] - a["time_s"][0]
     f = ta["frequency_Hz"]
     out = {"seed": ta["seed"], "seal_m3_per_Pa": ta["value"], "frequency_Hz": f, "start": ta["start"],
@@ -78,13 +90,20 @@ def main():
     if len(a.dirs) % 2:
         ap.error("give the records in pairs: SEAL OIL")
     with open(a.case, "rb") as fh:
-        length_max = tomllib.load(fh)["uncertain"]["cylinder.wetted_length_m"][1]
+        case = tomllib.load(fh)
+    try:
+        length_max = case["uncertain"]["cylinder.wetted_length_m"][1]
+    except KeyError:  # not declared uncertain: the column is the case's
+        length_max = case["cylinder"]["wetted_length_m"]
     print(f"| seed | f [Hz] | start | seal [m^3/Pa] | column [m] | twin's column [m] (case's bound {length_max:g}) "
           "| difference, noise units: every sample (within 10 harmonics), per column |")
     print("|---|---|---|---|---|---|---|")
     results = []
     for s, o in zip(a.dirs[::2], a.dirs[1::2]):
-        r = compare(s, o, length_max)
+        try:
+            r = compare(s, o, length_max)
+        except KeyError as e:
+            sys.exit(f"seal_twin.py: {s} or {o}: truth.json or data.csv lacks {e} (made by make_record.py?)")
         results.append(r)
         cols = "; ".join(f"{SHORT[c]} {v['every_sample']:.3f} ({v['within_10_harmonics']:.3f})"
                          for c, v in r["columns"].items())
