@@ -148,7 +148,9 @@ namespace
   std::string mask_timings(const std::string &text)
   {
     std::string out = std::regex_replace(text, std::regex(R"(\d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ)"), "DATE");
-    out = std::regex_replace(out, std::regex(R"(\d{1,2}:\d\d:\d\d at \d{4}/\d\d/\d\d)"), "DATE"); // deal.II's VTU header (0:40:09 after midnight)
+    // deal.II's VTU header: "0:40:09 at 2026/12/1", neither the hour nor the
+    // month and day padded to two digits
+    out = std::regex_replace(out, std::regex(R"(\d{1,2}:\d\d:\d\d at \d{4}/\d{1,2}/\d{1,2})"), "DATE");
     out = std::regex_replace(out, std::regex(R"([0-9.]+ s wall)"), "T s wall");
     out = std::regex_replace(out, std::regex(R"(\d+ from a checkpoint)"), "N from a checkpoint");
     std::istringstream in(out);
