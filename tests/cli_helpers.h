@@ -5,6 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -13,6 +14,7 @@
 #include <string>
 #include <sys/wait.h>
 #include <unistd.h>
+#include <vector>
 
 #include "common/case_file.h"
 
@@ -94,5 +96,58 @@ namespace rectify::test_support
     const auto pos = text.find(from);
     EXPECT_NE(pos, std::string::npos) << from;
     return text.replace(pos, from.size(), to);
+  }
+
+  /// `j` without every key that `drop(key)` names, at any depth (inside
+  /// arrays too): two outputs compared apart from what the clock measured.
+  template <class Drop>
+  void erase_keys(nlohmann::json &j, const Drop &drop)
+  {
+    if (j.is_object())
+      {
+        for (auto it = j.begin(); it != j.end();)
+          if (drop(it.key()))
+            it = j.erase(it);
+          else
+            erase_keys(*it++, drop);
+      }
+    else if (j.is_array())
+      for (auto &e : j)
+        erase_keys(e, drop);
+  }
+
+  /// A CSV's comment lines, then its header and rows without the columns
+  /// whose header cell `drop` names; the rows below the header sorted if
+  /// `any_order` (a checkpoint: rows in the order they finished).
+  template <class Drop>
+  std::vector<std::string> csv_without_columns(const std::string &text, const Drop &drop, bool any_order = false)
+  {
+    std::vector<std::string> comments, rows;
+    std::vector<bool>        dropped;
+    std::istringstream       in(text);
+    for (std::string line; std::getline(in, line);)
+      {
+        if (!line.empty() && line[0] == '#')
+          {
+            comments.push_back(line);
+            continue;
+          }
+        std::vector<std::string> cells;
+        std::stringstream        s(line);
+        for (std::string c; std::getline(s, c, ',');)
+          cells.push_back(c);
+        if (dropped.empty())
+          for (const auto &c : cells)
+            dropped.push_back(drop(c));
+        std::string kept;
+        for (std::size_t i = 0; i < cells.size(); ++i)
+          if (i >= dropped.size() || !dropped[i])
+            kept += cells[i] + ",";
+        rows.push_back(kept);
+      }
+    if (any_order && rows.size() > 1)
+      std::sort(rows.begin() + 1, rows.end());
+    comments.insert(comments.end(), rows.begin(), rows.end());
+    return comments;
   }
 } // namespace rectify::test_support

@@ -23,21 +23,16 @@ namespace
     return std::system((command + " > " + log.string() + " 2>&1").c_str());
   }
 
-  /// A summary without what the clock measured (every key naming a wall or
-  /// CPU time, at any depth)
+  /// What the clock measured: a summary's key or a table's column naming a
+  /// wall or CPU time
+  bool is_clock_key(const std::string &key)
+  {
+    return key.find("wall_time") != std::string::npos || key.find("cpu_time") != std::string::npos;
+  }
+
   nlohmann::json timeless(nlohmann::json j)
   {
-    if (j.is_object())
-      {
-        for (auto it = j.begin(); it != j.end();)
-          if (it.key().find("wall_time") != std::string::npos || it.key().find("cpu_time") != std::string::npos)
-            it = j.erase(it);
-          else
-            {
-              *it = timeless(*it);
-              ++it;
-            }
-      }
+    erase_keys(j, is_clock_key);
     return j;
   }
 } // namespace
@@ -184,30 +179,10 @@ TEST(Install, TheCvodeBuiltHereRunsAsDebiansBitForBit)
           }
       if (std::filesystem::exists(a / "sweep-runs.csv"))
         { // every column but the wall time: states, CVODE counters
-          const auto without_time = [](const std::string &text) {
-            std::istringstream       in(text);
-            std::string              line, out;
-            std::size_t              time_column = std::string::npos;
-            while (std::getline(in, line))
-              {
-                std::vector<std::string> cells;
-                std::stringstream        row(line);
-                for (std::string cell; std::getline(row, cell, ',');)
-                  cells.push_back(cell);
-                if (time_column == std::string::npos) // the header
-                  time_column = static_cast<std::size_t>(
-                    std::find(cells.begin(), cells.end(), "wall_time_s") - cells.begin());
-                if (time_column < cells.size())
-                  cells.erase(cells.begin() + static_cast<std::ptrdiff_t>(time_column));
-                for (const auto &c : cells)
-                  out += c + ",";
-                out += "\n";
-              }
-            return out;
-          };
           const auto ra = read_text(a / "sweep-runs.csv");
           ASSERT_NE(ra.find(",wall_time_s,"), std::string::npos) << ra;
-          EXPECT_TRUE(without_time(ra) == without_time(read_text(b / "sweep-runs.csv")))
+          EXPECT_TRUE(csv_without_columns(ra, is_clock_key) ==
+                      csv_without_columns(read_text(b / "sweep-runs.csv"), is_clock_key))
             << runs[i] << ": sweep-runs.csv differs";
         }
     }
