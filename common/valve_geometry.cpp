@@ -451,6 +451,14 @@ namespace rectify
                          ": the closed reed would not fit under the pocket ceiling (pocket_height_m = " +
                          format_number(g.pocket_height_m) + ")");
       check_ports(g, where);
+      if (!std::isnan(g.stop_height_m) &&
+          !(g.stop_height_m > g.reed_thickness_m && g.stop_height_m <= g.pocket_height_m))
+        throw InputError(where(t, "stop_height_m") + " = " + format_number(g.stop_height_m) +
+                         (g.stop_height_m > g.pocket_height_m ?
+                            ": the stop would stand above the pocket's ceiling (pocket_height_m = " +
+                              format_number(g.pocket_height_m) + ")" :
+                            ": the stop must stand above the closed reed (reed_thickness_m = " +
+                              format_number(g.reed_thickness_m) + "), in (reed_thickness_m, pocket_height_m]"));
       if (g.reed_thickness_m >= 0.5 * std::min(g.reed_length_m, g.reed_width_m))
         throw InputError(where(t, "reed_thickness_m") + " = " + format_number(g.reed_thickness_m) +
                          ": a reed must be a thin plate (thickness below half its length and width)");
@@ -518,6 +526,10 @@ namespace rectify
     g.pocket_height_m  = f.real(t, "pocket_height_m", g.pocket_height_m, pos);
     g.outlet_face      = f.text(t, "outlet_face", g.outlet_face, {"x-max", "y-min", "y-max", "ceiling"});
     g.seat_land_min_m  = f.real(t, "seat_land_min_m", g.seat_land_min_m, pos);
+    if (f.has(t, "stop_height_m"))
+      g.stop_height_m = f.real(t, "stop_height_m", 0.0, Bounds::positive());
+    else
+      f.declare(t, "stop_height_m");
 
     if (!outline)
       {

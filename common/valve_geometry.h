@@ -20,6 +20,8 @@
 #include <nlohmann/json.hpp>
 
 #include <array>
+#include <cmath>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -79,6 +81,18 @@ namespace rectify
     /// Which pocket face is the outlet: "x-max" (reference), "y-min", "y-max"
     /// or "ceiling". The inlet is the port's face z = -port_length_m.
     std::string outlet_face = "x-max";
+    /// The stop (guard) that limits the reed's lift: the height of its face
+    /// above the seat plane, in (reed_thickness_m, pocket_height_m]; NaN
+    /// (the key left out): the pocket's ceiling is the stop. The reed's top
+    /// meets it at the tip opening stop_lift_m(). A flat stop over the
+    /// whole reed; not part of the flow domain (the map sets mesh the open
+    /// pocket), so not in to_json() (a map set's provenance).
+    double stop_height_m = std::numeric_limits<double>::quiet_NaN();
+    /// The stop face's height: stop_height_m, or the ceiling.
+    double stop_face_m() const { return std::isnan(stop_height_m) ? pocket_height_m : stop_height_m; }
+    /// The tip opening at which the reed meets its stop: the stop's face
+    /// less the reed's thickness (by default the ceiling less the thickness).
+    double stop_lift_m() const { return stop_face_m() - reed_thickness_m; }
 
     /// The outline (empty: the shorthand's rectangle): corners,
     /// counter-clockwise, as written.
