@@ -1,6 +1,8 @@
 // `rectify simulate` and `rectify sweep`: the lumped EHA model (system/).
 #include <cmath>
 #include <cstdio>
+#include <map>
+#include <span>
 #include <sstream>
 
 #include "app/commands.h"
@@ -120,6 +122,22 @@ namespace rectify::app
                 "the thesis's (damping ratio, eq. 3.21's mass)");
     }
 
+    /// The stop, cavitation and the stress's source and limits, for the echo.
+    std::string limits_text(const system::SystemParameters &p)
+    {
+      char buf[160];
+      std::snprintf(buf, sizeof(buf), "stop %s at %.4g mm (restitution %g); ", p.reed.stop == "on" ? "on" : "OFF",
+                    p.reed.stop_lift_m * 1e3, p.reed.stop_restitution);
+      std::string text = buf;
+      text += p.fluid.cavitates() ? "cavitation at " + format_number(p.fluid.cavitation_pressure_Pa) + " Pa abs; " :
+                                    std::string("cavitation OFF; ");
+      std::snprintf(buf, sizeof(buf), "root stress %.4g MPa per mm of opening (",
+                    p.reed.root_stress_per_opening_Pa_per_m * 1e-9);
+      return text + buf + p.reed.stress_source + "), endurance limit " +
+             format_number(p.material.endurance_limit_Pa) + " Pa, ultimate " +
+             format_number(p.material.ultimate_strength_Pa) + " Pa";
+    }
+
     system::Drive make_drive(const system::SystemParameters &p, double frequency)
     {
       if (p.drive.waveform == "sine")
@@ -128,6 +146,70 @@ namespace rectify::app
     }
 
     // ---------------------------------------------------------------- simulate
+    /// The time series' plot: pressures (with the cavitation pressure),
+    /// reed openings (with the stop, the map's end and linear elasticity's
+    /// range), root stresses (with the material's limits), piston and load.
+    std::vector<PlotPanel> timeseries_panels(const std::filesystem::path &ts, std::size_t n,
+                                             const system::Model &model, const system::SystemParameters &p)
+    {
+      const auto &lim = model.limits();
+      PlotPanel pressures{"Pressures (gauge, about the bias)", "time [s]", "pressure [psi]", false, false,
+                          {{ts, "time_s", "chamber_pressure_Pa", "chamber p_ch", "lines", 1, 1 / psi, n},
+                           {ts, "time_s", "outlet_pressure_Pa", "outlet p_o", "lines", 1, 1 / psi, n},
+                           {ts, "time_s", "high_pressure_Pa", "high side p_h", "lines", 1, 1 / psi, n},
+                           {ts, "time_s", "low_pressure_Pa", "low side p_l", "lines", 1, 1 / psi, n}}};
+      pressures.levels.push_back({(lim.cavitation_pressure_Pa - p.fluid.bias_pressure_Pa) / psi,
+                                  std::string("cavitation pressure") + (lim.cavitation_on ? "" : " (cavitation off)")});
+      PlotPanel openings{"Reed tip openings", "time [s]", "opening [um]", false, false,
+                         {{ts, "time_s", "outlet_reed_m", "outlet reed x_ro", "lines", 1, 1e6, n},
+                          {ts, "time_s", "inlet_reed_m", "inlet reed x_ri", "lines", 1, 1e6, n}}};
+      openings.levels.push_back({lim.geometric_stop_lift_m * 1e6, lim.stop_on ? "stop" : "stop (off: passed freely)"});
+      const double map_end = std::min(model.valve_map(0).resistance().max_opening(),
+                                      model.valve_map(1).resistance().max_opening());
+      if (map_end < 2 * lim.geometric_stop_lift_m)
+        openings.levels.push_back({map_end * 1e6, "the map's last opening"});
+      openings.levels.push_back({lim.large_deflection_opening_m * 1e6, "linear elasticity's limit"});
+      PlotPanel stresses{"Reed root bending stress (underside at the clamp)", "time [s]", "stress [MPa]", false, false,
+                         {{ts, "time_s", "outlet_root_stress_Pa", "outlet reed", "lines", 1, 1e-6, n},
+                          {ts, "time_s", "inlet_root_stress_Pa", "inlet reed", "lines", 1, 1e-6, n}}};
+      stresses.levels = {{lim.material.endurance_limit_Pa * 1e-6, "endurance limit"},
+                         {lim.material.ultimate_strength_Pa * 1e-6, "ultimate strength"}};
+      PlotPanel motion{"Piston and actuator", "time [s]", "piston [um], actuator velocity [mm/s]", false, false,
+                       {{ts, "time_s", "piston_m", "piston x_p [um]", "lines", 1, 1e6, n},
+                        {ts, "time_s", "actuator_velocity_m_per_s", "actuator velocity [mm/s]", "lines", 1, 1e3, n}}};
+      return {pressures, openings, stresses, motion};
+    }
+
+    /// The console's lines on what the reeds and the volumes reached.
+    void print_reeds_and_volumes(const system::RunResult &r, const system::Model &model)
+    {
+      for (std::size_t v = 0; v < 2; ++v)
+        {
+          const auto &s = r.valves[v];
+          if (model.valve_model() == system::ValveModel::ideal)
+            break;
+          std::printf("%s reed: opening up to %.4g um, root stress %.4g to %.4g MPa, Goodman factor %.3g; "
+                      "%zu seat impacts (up to %.3g m/s), %zu stop impacts (up to %.3g m/s)\n",
+                      v == 0 ? "outlet" : "inlet", s.max_opening_m * 1e6, s.min_root_stress_Pa * 1e-6,
+                      s.max_root_stress_Pa * 1e-6, s.goodman_factor, s.seat_impacts, s.max_seat_impact_m_per_s,
+                      s.stop_impacts, s.max_stop_impact_m_per_s);
+        }
+      std::string low;
+      for (const auto &vol : r.volumes)
+        {
+          char buf[160];
+          std::snprintf(buf, sizeof(buf), "%s%s %.4g MPa", low.empty() ? "" : ", ", vol.name.c_str(),
+                        vol.min_absolute_pressure_Pa * 1e-6);
+          low += buf;
+          if (vol.max_cavity_volume_m3 > 0)
+            {
+              std::snprintf(buf, sizeof(buf), " (cavity up to %.3g mm^3)", vol.max_cavity_volume_m3 * 1e9);
+              low += buf;
+            }
+        }
+      std::printf("lowest absolute pressures: %s\n", low.c_str());
+    }
+
     struct SimulateOptions : CommonOptions
     {
       double      frequency_Hz = 10;
@@ -158,6 +240,7 @@ namespace rectify::app
                                       p.drive.waveform},
                         {"valve maps", valve_maps_text(p)},
                         {"reed", reed_text(p)},
+                        {"limits", limits_text(p)},
                         {"rtol", format_number(p.solver.relative_tolerance)},
                         {"jacobian", jacobian},
                         {"out", o.out_dir}});
@@ -183,20 +266,7 @@ namespace rectify::app
       const auto ts = out / "timeseries.csv";
       // Long runs: plot at most about 20 000 rows a curve (the CSV keeps them all).
       const std::size_t n = std::max<std::size_t>(1, r.series->n_rows() / 20000 + 1);
-      const bool plotted = render_plot(
-        out / "timeseries",
-        {{"Pressures (gauge, about the bias)", "time [s]", "pressure [psi]", false, false,
-          {{ts, "time_s", "chamber_pressure_Pa", "chamber p_ch", "lines", 1, 1 / psi, n},
-           {ts, "time_s", "outlet_pressure_Pa", "outlet p_o", "lines", 1, 1 / psi, n},
-           {ts, "time_s", "high_pressure_Pa", "high side p_h", "lines", 1, 1 / psi, n},
-           {ts, "time_s", "low_pressure_Pa", "low side p_l", "lines", 1, 1 / psi, n}}},
-         {"Reed tip openings", "time [s]", "opening [um]", false, false,
-          {{ts, "time_s", "outlet_reed_m", "outlet reed x_ro", "lines", 1, 1e6, n},
-           {ts, "time_s", "inlet_reed_m", "inlet reed x_ri", "lines", 1, 1e6, n}}},
-         {"Piston and actuator", "time [s]", "piston [um], actuator velocity [mm/s]", false, false,
-          {{ts, "time_s", "piston_m", "piston x_p [um]", "lines", 1, 1e6, n},
-           {ts, "time_s", "actuator_velocity_m_per_s", "actuator velocity [mm/s]", "lines", 1,
-            1e3, n}}}});
+      const bool plotted = render_plot(out / "timeseries", timeseries_panels(ts, n, model, p));
 
       nlohmann::json summary = {
         {"command", "simulate"},
@@ -214,6 +284,7 @@ namespace rectify::app
         {"definitions",
          {{"stored_pressure_Pa", "eq. 5.1: mean outlet pressure p_o over the whole run, gauge about the bias pressure"},
           {"mean_velocity_m_per_s", "eq. 5.2: mean actuator velocity over the whole run"}}},
+        {"validity", r.validity.to_json()},
         {"run", r.to_json()},
         {"model_constants", model.constants().to_json()},
         {"parameters", p.to_json()},
@@ -225,16 +296,135 @@ namespace rectify::app
       std::printf("mean actuator velocity (eq. 5.2): %.6g m/s\n", r.mean_velocity_m_per_s);
       std::printf("piston stroke %.4g um, max outlet reed opening %.4g um, seat impacts %zu\n",
                   r.piston_stroke_m * 1e6, r.max_outlet_reed_opening_m * 1e6, r.n_seat_impacts);
+      print_reeds_and_volumes(r, model);
       std::printf("volume balance error %.2e (relative), CVODE: %ld steps, %ld events, %.2f s\n",
                   r.volume_balance_rel_error, r.stats.steps, r.stats.events, r.wall_time_s);
       for (const auto &w : r.warnings)
         std::printf("warning: %s\n", w.c_str());
+      std::printf("validity: %s\n", r.validity.line().c_str());
       if (!plotted)
         std::printf("notice: gnuplot not available or failed; no plot written\n");
       std::printf("wrote %s\n", (out / "summary.json").c_str());
     }
 
     // ------------------------------------------------------------------- sweep
+    /// Each series' validity in the summary: per frequency the flag, the
+    /// worse Goodman factor and the impacts; counts of each flag.
+    void add_validity(nlohmann::json &series, const std::vector<system::SweepPoint> &points, std::size_t first,
+                      std::size_t n)
+    {
+      nlohmann::json valid = nlohmann::json::array(), goodman = nlohmann::json::array(),
+                     seat = nlohmann::json::array(), stop = nlohmann::json::array();
+      std::map<std::string, std::size_t> count{{"not_valid", 0},      {"beyond_map", 0}, {"beyond_stop", 0},
+                                               {"below_cavitation_pressure", 0}, {"goodman_below_1", 0},
+                                               {"at_stop", 0},        {"cavitating", 0}, {"large_deflection", 0}};
+      const auto number = [](double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(); };
+      for (std::size_t i = first; i < first + n; ++i)
+        {
+          const auto &pt = points[i];
+          valid.push_back(!pt.failed() && pt.valid);
+          goodman.push_back(number(pt.goodman_factor));
+          seat.push_back(number(pt.max_seat_impact_m_per_s));
+          stop.push_back(number(pt.max_stop_impact_m_per_s));
+          if (pt.failed())
+            continue;
+          count["not_valid"] += pt.valid ? 0 : 1;
+          count["beyond_map"] += pt.beyond_map;
+          count["beyond_stop"] += pt.beyond_stop;
+          count["below_cavitation_pressure"] += pt.below_cavitation_pressure;
+          count["goodman_below_1"] += pt.goodman_below_1;
+          count["at_stop"] += pt.at_stop;
+          count["cavitating"] += pt.cavitating;
+          count["large_deflection"] += pt.large_deflection;
+        }
+      series["valid"]                            = valid;
+      series["goodman_factor"]                   = goodman;
+      series["max_seat_impact_velocity_m_per_s"] = seat;
+      series["max_stop_impact_velocity_m_per_s"] = stop;
+      series["counts"]                           = count;
+    }
+
+    /// sweep.csv: per series its metric, the metric again where the run is
+    /// not valid (NaN where it is: the plot's marks) and its Goodman factor.
+    std::vector<std::string> write_sweep_table(const std::filesystem::path &file,
+                                               const std::vector<system::SweepPoint> &points,
+                                               const std::vector<std::string> &names, const std::vector<double> &f,
+                                               const std::string &metric)
+    {
+      std::vector<std::string> columns{"frequency_Hz"};
+      for (const auto &n : names)
+        columns.insert(columns.end(), {n + "_" + metric, n + "_not_valid_" + metric, n + "_goodman_factor"});
+      CsvTable     table(columns);
+      const double nan = std::numeric_limits<double>::quiet_NaN();
+      for (std::size_t i = 0; i < f.size(); ++i)
+        {
+          std::vector<double> row{f[i]};
+          for (std::size_t si = 0; si < names.size(); ++si)
+            {
+              const auto  &pt = points[si * f.size() + i];
+              const double y  = metric == "stored_pressure_Pa" ? pt.stored_pressure_Pa : pt.mean_velocity_m_per_s;
+              row.insert(row.end(), {y, pt.valid ? nan : y, std::isfinite(pt.goodman_factor) ? pt.goodman_factor : nan});
+            }
+          table.add_row(row);
+        }
+      table.write(file);
+      return columns;
+    }
+
+    /// The sweep's plot: the metric, its runs that are not valid ringed;
+    /// below it each series' Goodman factor, with 1 marked.
+    std::vector<PlotPanel> sweep_panels(const std::filesystem::path &csv, const std::vector<std::string> &names,
+                                        const std::vector<std::string> &columns, bool pressure, bool log_x)
+    {
+      PlotPanel panel{pressure ? "No-flow stored pressure (eq. 5.1), cf. thesis Fig. 5.3" :
+                                 "Mean actuator velocity (eq. 5.2), cf. thesis Figs. 5.4, 5.6; ringed: not valid",
+                      "pumping frequency [Hz]",
+                      pressure ? "stored pressure [psi]" : "mean velocity [m/s]",
+                      log_x,
+                      false,
+                      {}};
+      if (pressure)
+        panel.title += "; ringed: not valid";
+      PlotPanel goodman{"The reeds' Goodman factor (the worse valve's): below 1 the reed does not survive",
+                        "pumping frequency [Hz]", "Goodman factor", log_x, true, {}};
+      goodman.levels.push_back({1.0, "survives above"});
+      const double scale = pressure ? 1 / psi : 1.0;
+      for (std::size_t si = 0; si < names.size(); ++si)
+        {
+          panel.series.push_back({csv, "frequency_Hz", columns[3 * si + 1], names[si], "linespoints", 1.0, scale});
+          panel.series.push_back({csv, "frequency_Hz", columns[3 * si + 2], names[si] + ": not valid",
+                                  "points pt 6 ps 2 lc rgb 'red'", 1.0, scale});
+          if (names[si] != "ideal")
+            goodman.series.push_back({csv, "frequency_Hz", columns[3 * si + 3], names[si], "linespoints"});
+        }
+      return {panel, goodman};
+    }
+
+    /// "all 100 runs valid" or "37 of 100 runs not valid (Goodman factor below 1: 35, ...)", with the flags that hold.
+    std::string validity_counts_line(const nlohmann::json &counts, std::size_t n)
+    {
+      const std::pair<const char *, const char *> why[] = {{"goodman_below_1", "Goodman factor below 1"},
+                                                           {"beyond_map", "a reed beyond its map"},
+                                                           {"beyond_stop", "a reed through its stop"},
+                                                           {"below_cavitation_pressure", "a pressure below cavitation"}};
+      const std::pair<const char *, const char *> also[] = {{"at_stop", "at the stop"},
+                                                            {"cavitating", "cavitating"},
+                                                            {"large_deflection", "large deflection"}};
+      const auto list = [&](std::span<const std::pair<const char *, const char *>> items) {
+        std::string text;
+        for (const auto &[key, phrase] : items)
+          if (const auto k = counts[key].get<std::size_t>(); k > 0)
+            text += (text.empty() ? "" : ", ") + std::string(phrase) + ": " + std::to_string(k);
+        return text;
+      };
+      const std::size_t bad  = counts["not_valid"].get<std::size_t>();
+      std::string       line = bad == 0 ? "all " + std::to_string(n) + " runs valid" :
+                                          std::to_string(bad) + " of " + std::to_string(n) + " runs NOT VALID (" +
+                                            list(why) + ")";
+      const std::string notes = list(also);
+      return notes.empty() ? line : line + "; " + notes + " (sweep-runs.csv has each run's flags)";
+    }
+
     struct SweepCommandOptions : CommonOptions
     {
       double                   from_Hz = 10, to_Hz = 3500;
@@ -290,6 +480,7 @@ namespace rectify::app
                      {"scenario", o.scenario},
                      {"valve maps", valve_maps_text(p)},
                      {"reed", reed_text(p)},
+                     {"limits", limits_text(p)},
                      {"series", series_list},
                      {"frequencies [Hz]", format_number(o.from_Hz) + " .. " + format_number(o.to_Hz) +
                                             ", " + std::to_string(o.n) + " " + o.spacing + "-spaced"},
@@ -317,10 +508,6 @@ namespace rectify::app
 
       // Wide table for plotting: one column per series.
       const std::string metric = pressure ? "stored_pressure_Pa" : "mean_velocity_m_per_s";
-      std::vector<std::string> columns{"frequency_Hz"};
-      for (const auto &n : names)
-        columns.push_back(n + "_" + metric);
-      CsvTable table(columns);
       const std::size_t nf = s.frequencies_Hz.size();
       nlohmann::json    per_series = nlohmann::json::object();
       long              total_steps = 0;
@@ -355,30 +542,11 @@ namespace rectify::app
           per_series[names[si]] = {{metric, values},      {"stderr", stderrs},
                                    {"regime", regimes},   {"wall_time_s", walls},
                                    {"settled", settled}};
+          add_validity(per_series[names[si]], r.points, si * nf, nf);
         }
-      for (std::size_t i = 0; i < nf; ++i)
-        {
-          std::vector<double> row{s.frequencies_Hz[i]};
-          for (std::size_t si = 0; si < names.size(); ++si)
-            {
-              const auto &pt = r.points[si * nf + i];
-              row.push_back(pressure ? pt.stored_pressure_Pa : pt.mean_velocity_m_per_s);
-            }
-          table.add_row(row);
-        }
-      table.write(out / "sweep.csv");
-
-      PlotPanel panel{pressure ? "No-flow stored pressure (eq. 5.1), cf. thesis Fig. 5.3" :
-                                 "Mean actuator velocity (eq. 5.2), cf. thesis Figs. 5.4, 5.6",
-                      "pumping frequency [Hz]",
-                      pressure ? "stored pressure [psi]" : "mean velocity [m/s]",
-                      o.spacing == "log",
-                      false,
-                      {}};
-      for (std::size_t si = 0; si < names.size(); ++si)
-        panel.series.push_back({out / "sweep.csv", "frequency_Hz", columns[si + 1], names[si],
-                                "linespoints", 1.0, pressure ? 1 / psi : 1.0});
-      const bool plotted = render_plot(out / "sweep", {panel});
+      const auto columns = write_sweep_table(out / "sweep.csv", r.points, names, s.frequencies_Hz, metric);
+      const bool plotted = render_plot(out / "sweep", sweep_panels(out / "sweep.csv", names, columns, pressure,
+                                                                   o.spacing == "log"));
 
       nlohmann::json summary = {
         {"command", "sweep"},
@@ -417,6 +585,8 @@ namespace rectify::app
       std::printf("%zu runs (%zu resumed) in %.1f s; %zu periodic, %zu not settled; %.3g s CPU per cycle\n",
                   r.points.size(), r.n_resumed, r.wall_time_s, n_periodic, n_unsettled,
                   sum_wall / sum_cycles);
+      for (const auto &n : names)
+        std::printf("validity (%s): %s\n", n.c_str(), validity_counts_line(per_series[n]["counts"], nf).c_str());
       for (const auto &f : failures)
         std::fprintf(stderr, "warning: %s at %s Hz: %s (NaN in sweep.csv)\n", f["series"].get<std::string>().c_str(),
                      format_number(f["frequency_Hz"].get<double>()).c_str(), f["why"].get<std::string>().c_str());

@@ -61,6 +61,14 @@ namespace rectify
     p.free_air_fraction =
       f.real(t, "free_air_fraction", p.free_air_fraction, Bounds{0.0, 0.5, true, true});
     p.free_air_law = f.text(t, "free_air_law", p.free_air_law, {"polytropic", "constant-modulus"});
+    p.cavitation   = f.text(t, "cavitation", p.cavitation, {"discrete-cavity", "none"});
+    p.cavitation_pressure_Pa =
+      f.real(t, "cavitation_pressure_Pa", p.cavitation_pressure_Pa, Bounds::non_negative());
+    if (!(p.cavitation_pressure_Pa < p.bias_pressure_Pa))
+      throw InputError(f.where(t, "cavitation_pressure_Pa") + " = " + format_number(p.cavitation_pressure_Pa) +
+                       ": at or above the bias pressure (bias_pressure_Pa = " + format_number(p.bias_pressure_Pa) +
+                       "): the oil would cavitate at rest; a cavitation pressure is an absolute pressure far "
+                       "below the bias");
     return p;
   }
 

@@ -27,6 +27,18 @@ namespace rectify
     /// V ~ p^(-1/gamma): soft at low pressure) or "constant-modulus" (a
     /// fixed bulk modulus gamma p_bias: the form of eq. 3.26 at the bias).
     std::string free_air_law       = "polytropic";
+    /// Cavitation in the lumped model's oil volumes (system/cavitation.h):
+    /// "discrete-cavity", a volume's absolute pressure cannot fall below
+    /// cavitation_pressure_Pa: a cavity opens there and takes up what the
+    /// volume loses, and closes when it is filled again (the discrete
+    /// vapour cavity model of water-hammer practice, lumped); "none": the
+    /// thesis's model, pressures unbounded below.
+    std::string cavitation         = "discrete-cavity";
+    /// Absolute pressure at which a cavity opens [Pa]: the oil's
+    /// gas-release pressure (air saturated at 1 atm comes out of solution
+    /// below it; mineral oil's vapour pressure is far lower, about 10 Pa).
+    double cavitation_pressure_Pa  = 1.0e5;
+    bool   cavitates() const { return cavitation == "discrete-cavity"; }
 
     /// eq. 3.26 with beta_gas = gamma p_bias (eq. 3.25).
     double effective_bulk_modulus_Pa() const;

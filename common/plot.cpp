@@ -57,6 +57,8 @@ namespace rectify
                 << " every " << std::max<std::size_t>(r.stride, 1) << "::1 using ($" << cx << "*" << r.x_scale << "):($" << cy << "*"
                 << r.y_scale << ") with " << r.style << " title " << quote(r.title);
             }
+          for (const auto &level : p.levels)
+            s << ", \\\n     " << level.y << " with lines dt 2 lw 1.5 title " << quote(level.title);
           s << "\n";
         }
       if (panels.size() > 1)

@@ -30,6 +30,14 @@ namespace rectify
     bool                    log_y = false;
     std::vector<PlotSeries> series;
     bool                    equal_axes = false; ///< one unit as long on both axes (drawings)
+    /// Horizontal dashed lines across the panel (a limit: the reed's stop,
+    /// the map's end), in plotted units, each named in the key.
+    struct Level
+    {
+      double      y;
+      std::string title;
+    };
+    std::vector<Level> levels;
   };
 
   /// Writes `<base>.gp` and renders `<base>.png` and `<base>.svg` (panels

@@ -447,10 +447,12 @@ namespace rectify::system
         if (flag != CV_ROOT_RETURN)
           continue;
         check(CVodeGetRootInfo(m.cvode, found.data()), "CVodeGetRootInfo");
-        ++m.events;
         std::span<double> y(N_VGetArrayPointer(m.y), m.system.n_states());
         if (m.system.handle_events(t_, y, found))
-          m.restart(t_);
+          { // an event; a root that changes nothing (one the system only logs) is not one
+            ++m.events;
+            m.restart(t_);
+          }
       }
   }
 

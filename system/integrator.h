@@ -39,7 +39,9 @@ namespace rectify::system
     virtual std::size_t n_roots() const { return 0; }
     virtual void        roots(double, std::span<const double>, std::span<double>) const {}
     /// Called at a located root (`found[i] != 0` for the roots that fired).
-    /// May change y and the system's discrete mode; returns true if it did.
+    /// May change y and the system's discrete mode; returns true if it did
+    /// (then CVODE restarts there). A root that changes nothing leaves
+    /// CVODE's steps as they were.
     virtual bool handle_events(double, std::span<double>, std::span<const int>) { return false; }
   };
 

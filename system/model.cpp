@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "common/case_file.h"
+#include "system/cavitation.h"
 
 namespace rectify::system
 {
@@ -161,6 +162,28 @@ namespace rectify::system
     , scenario_(scenario)
     , drive_(std::move(drive))
   {
+    stop_lift_ = parameters.reed.stop == "on" && valves_ == ValveModel::dynamic ?
+                   parameters.reed.stop_lift_m :
+                   std::numeric_limits<double>::infinity();
+    stop_restitution_ = parameters.reed.stop_restitution;
+    limits_           = {parameters.material,
+                         parameters.reed.large_deflection_opening_m,
+                         parameters.reed.stop_lift_m,
+                         parameters.fluid.cavitation_pressure_Pa,
+                         stop_lift_ < std::numeric_limits<double>::infinity(),
+                         parameters.fluid.cavitates(),
+                         parameters.reed.stress_source};
+    stress1_          = parameters.reed.root_stress_per_opening_Pa_per_m;
+    stress2_          = parameters.reed.second_mode_root_stress_per_opening_Pa_per_m;
+    if (parameters.fluid.cavitates())
+      {
+        p_cavitation_ = parameters.fluid.cavitation_pressure_Pa - c_.p_bias;
+        cavity_nodes_ = {state::chamber_p, state::high_p, state::low_p};
+        if (c_.L_line > 0)
+          for (std::size_t k = 0; k < c_.n_line_segments; ++k)
+            cavity_nodes_.push_back(state::line_segment_node(k));
+      }
+    cavitating_.assign(cavity_nodes_.size(), 0);
     loading_ = parameters.reed.fluid_loading == "map" && valves_ == ValveModel::dynamic;
     if (!loading_)
       return;
@@ -254,8 +277,113 @@ namespace rectify::system
 
   void Model::reset()
   {
-    closed_    = {true, true};
-    n_impacts_ = 0;
+    closed_         = {true, true};
+    at_stop_        = {false, false};
+    n_impacts_      = 0;
+    n_stop_impacts_ = 0;
+    events_.clear();
+    std::fill(cavitating_.begin(), cavitating_.end(), 0);
+  }
+
+  void Model::sync_cavitation(std::span<const double> y)
+  {
+    for (std::size_t k = 0; k < cavity_nodes_.size(); ++k)
+      cavitating_[k] = y[cavity_nodes_[k]] < p_cavitation_;
+  }
+
+  double Model::node_compliance(std::size_t k, double p) const
+  {
+    const std::size_t i   = cavity_nodes_[k];
+    const auto        air = [&](double V) { return V * c_.fluid.free_air_compliance_per_volume(p); };
+    if (i == state::chamber_p)
+      return c_.C_ch + air(c_.V_ch);
+    if (i == state::high_p)
+      return c_.C_h + c_.C_seal + air(c_.V_h);
+    if (i == state::low_p)
+      return c_.C_l + air(c_.V_l);
+    if (i == state::line_node_p)
+      return c_.C_node + air(c_.V_node);
+    return c_.C_line_node + air(c_.V_line_node);
+  }
+
+  double Model::cavity_volume(std::size_t k, std::span<const double> y) const
+  {
+    return system::cavity_volume(y[cavity_nodes_[k]], p_cavitation_, node_compliance(k, p_cavitation_));
+  }
+
+  template <typename F>
+  void Model::with_physical(std::span<const double> y, const F &f) const
+  {
+    bool any = false;
+    for (std::size_t i : cavity_nodes_)
+      any = any || y[i] < p_cavitation_;
+    if (!any)
+      return f(y);
+    std::array<double, 64> local;
+    std::vector<double>    heap;
+    double                *d = local.data();
+    if (y.size() > local.size())
+      d = (heap.resize(y.size()), heap.data());
+    std::copy(y.begin(), y.end(), d);
+    for (std::size_t i : cavity_nodes_)
+      d[i] = cavity_pressure(d[i], p_cavitation_);
+    f(std::span<const double>(d, y.size()));
+  }
+
+  std::vector<double> Model::physical_state(std::span<const double> y) const
+  {
+    std::vector<double> p(y.begin(), y.end());
+    for (std::size_t i : cavity_nodes_)
+      p[i] = cavity_pressure(p[i], p_cavitation_);
+    return p;
+  }
+
+  Flows Model::flows(std::span<const double> y) const
+  {
+    Flows f;
+    with_physical(y, [&](std::span<const double> p) { f = flows_at(p); });
+    return f;
+  }
+
+  void Model::rhs(double t, std::span<const double> y, std::span<double> ydot) const
+  {
+    with_physical(y, [&](std::span<const double> p) { rhs_at(t, p, ydot); });
+  }
+
+  void Model::jacobian(double, std::span<const double> y, DenseView J) const
+  {
+    with_physical(y, [&](std::span<const double> p) { jacobian_at(p, J); });
+    // A held pressure does not move with its state: its column is zero.
+    for (std::size_t k = 0; k < cavity_nodes_.size(); ++k)
+      if (cavitating_[k] || y[cavity_nodes_[k]] < p_cavitation_)
+        for (std::size_t row = 0; row < J.n; ++row)
+          J(row, cavity_nodes_[k]) = 0.0;
+  }
+
+  double Model::root_stress(std::size_t v, std::span<const double> y) const
+  {
+    const std::size_t ix = v == 0 ? state::outlet_reed_x : state::inlet_reed_x;
+    if (c_.k_r2 == 0.0)
+      return stress1_ * y[ix];
+    const std::size_t ix2 = v == 0 ? state::outlet_reed2_x : state::inlet_reed2_x;
+    return stress1_ * y[ix] + stress2_ * y[ix2];
+  }
+
+  double Model::stress_rate(std::size_t v, std::span<const double> y) const
+  {
+    const std::size_t ix = v == 0 ? state::outlet_reed_x : state::inlet_reed_x;
+    if (valves_ == ValveModel::ideal || stress1_ == 0.0)
+      return 1.0;
+    if (c_.k_r2 == 0.0)
+      return closed_[v] || at_stop_[v] ? 1.0 : stress1_ * y[ix + 1];
+    const std::size_t ix2 = v == 0 ? state::outlet_reed2_x : state::inlet_reed2_x;
+    return stress1_ * y[ix + 1] + stress2_ * y[ix2 + 1];
+  }
+
+  void Model::log_event(double t, std::size_t v, ReedEvent::Kind kind, double velocity, std::span<const double> y)
+  {
+    if (record_events_)
+      events_.push_back({t, v, kind, velocity, opening(v, y), root_stress(v, y)});
   }
 
   std::vector<double> Model::initial_state() const
@@ -326,19 +454,31 @@ namespace rectify::system
     double v = stored_volume(3, y[state::line_node_p]);
     for (std::size_t k = 1; k < c_.n_line_segments; ++k)
       {
-        const double p = y[state::line_segment_node(k)];
-        v += c_.C_line_node * p + c_.V_line_node * c_.fluid.free_air_volume_change_per_volume(p);
+        const double p      = y[state::line_segment_node(k)];
+        const auto   liquid = [&](double q) {
+          return c_.C_line_node * q + c_.V_line_node * c_.fluid.free_air_volume_change_per_volume(q);
+        };
+        v += cavity_nodes_.empty() || !(p < p_cavitation_) ?
+               liquid(p) :
+               liquid(p_cavitation_) + node_compliance(3 + k, p_cavitation_) * (p - p_cavitation_);
       }
     return v;
   }
 
   double Model::stored_volume(int node, double p) const
   {
-    if (node == 3) // the node between the outlet valve and an inertial line
-      return c_.C_node * p + c_.V_node * c_.fluid.free_air_volume_change_per_volume(p);
-    const double V = node == 0 ? c_.V_ch : node == 1 ? c_.V_h : c_.V_l;
-    const double C = node == 0 ? c_.C_ch : node == 1 ? c_.C_h + c_.C_seal : c_.C_l;
-    return C * p + V * c_.fluid.free_air_volume_change_per_volume(p);
+    const auto liquid = [&](double q) {
+      if (node == 3) // the node between the outlet valve and an inertial line
+        return c_.C_node * q + c_.V_node * c_.fluid.free_air_volume_change_per_volume(q);
+      const double V = node == 0 ? c_.V_ch : node == 1 ? c_.V_h : c_.V_l;
+      const double C = node == 0 ? c_.C_ch : node == 1 ? c_.C_h + c_.C_seal : c_.C_l;
+      return C * q + V * c_.fluid.free_air_volume_change_per_volume(q);
+    };
+    if (cavity_nodes_.empty() || !(p < p_cavitation_))
+      return liquid(p);
+    // cavitating: the liquid holds what it held at p_c, less the cavity
+    const std::size_t k = node == 3 ? 3 : static_cast<std::size_t>(node);
+    return liquid(p_cavitation_) + node_compliance(k, p_cavitation_) * (p - p_cavitation_);
   }
 
   namespace
@@ -483,7 +623,7 @@ namespace rectify::system
     return maps_[v].resistance().evaluate(opening(v, y));
   }
 
-  Flows Model::flows(std::span<const double> y) const
+  Flows Model::flows_at(std::span<const double> y) const
   {
     const double p_ch = y[state::chamber_p], p_acc = y[state::accumulator_p];
     const double p_h = y[state::high_p], p_l = y[state::low_p];
@@ -618,10 +758,10 @@ namespace rectify::system
     return c_.F_coulomb * (1.0 + rise) * std::tanh(v / c_.v_friction);
   }
 
-  void Model::rhs(double t, std::span<const double> y, std::span<double> ydot) const
+  void Model::rhs_at(double t, std::span<const double> y, std::span<double> ydot) const
   {
     using namespace state;
-    const Flows  f    = flows(y);
+    const Flows  f    = flows_at(y);
     const double F_td = c_.force_per_ampere * current_A(t, y); // eq. 3.1
 
     ydot[piston_x] = y[piston_v];
@@ -645,16 +785,17 @@ namespace rectify::system
         const std::size_t ix2 = v == 0 ? outlet_reed2_x : inlet_reed2_x;
         if (ydot.size() > ix2 + 1)
           ydot[ix2] = ydot[ix2 + 1] = 0.0;
-        if (valves_ == ValveModel::ideal || (closed_[v] && c_.k_r2 == 0.0))
+        const bool held = closed_[v] || at_stop_[v];
+        if (valves_ == ValveModel::ideal || (held && c_.k_r2 == 0.0))
           {
-            ydot[ix] = ydot[ix + 1] = 0.0; // on the seat: held by the seat's reaction
+            ydot[ix] = ydot[ix + 1] = 0.0; // on the seat or the stop: held by its reaction
             continue;
           }
         // Two modes: the seat holds the tip (x1 + x2 = 0), not the reed: its
         // reaction acts on both modes (tip-normalised, equal modal masses)
         // and keeps the tip's acceleration at zero, while the modes'
         // difference rings as the tip-pinned reed.
-        const double reaction = closed_[v] ? seat_reaction(force[v], y[ix], y[ix + 1], y[ix2], y[ix2 + 1]) : 0.0;
+        const double reaction = held ? seat_reaction(force[v], y[ix], y[ix + 1], y[ix2], y[ix2 + 1]) : 0.0;
         ydot[ix] = y[ix + 1];
         if (const auto &l = f.loading[v])
           { // Lagrange with the mass M(x) = (m_r + m_a(x)) / gamma: M x'' + M'(x) x'^2 / 2 = F - b_s x' - F_film - k x,
@@ -773,7 +914,7 @@ namespace rectify::system
     return r;
   }
 
-  void Model::jacobian(double, std::span<const double> y, DenseView J) const
+  void Model::jacobian_at(std::span<const double> y, DenseView J) const
   {
     using namespace state;
     const double p_ch = y[chamber_p], p_h = y[high_p];
@@ -782,7 +923,7 @@ namespace rectify::system
     const double R13 = R1 + c_.R3, R24 = R2 + c_.R4;
     const double g13 = 1.0 / R13, g24 = 1.0 / R24, g5 = 1.0 / c_.R5, g6 = 1.0 / c_.R6;
     const double G   = g24 + g5 + g6;
-    const Flows  f   = flows(y);
+    const Flows  f   = flows_at(y);
     const double p_a = f.p_junction;
 
     // Mechanics.
@@ -832,7 +973,7 @@ namespace rectify::system
     // Reeds: F_o = A(x_o) R1 q_out, F_i = A(x_i) R2 q_in (A = A_r, or A_eff(x) of a map set).
     if (valves_ == ValveModel::dynamic)
       {
-        if (!closed_[0])
+        if (!closed_[0] && !at_stop_[0])
           {
             const auto A = force_area(0, y);
             J(outlet_reed_x, outlet_reed_v) = 1.0;
@@ -844,7 +985,7 @@ namespace rectify::system
               F.xo += A.slope * R1 * f.q_outlet;
             put(outlet_reed_v, F, 1.0 / c_.reed.mass);
           }
-        if (!closed_[1])
+        if (!closed_[1] && !at_stop_[1])
           {
             const auto A = force_area(1, y);
             J(inlet_reed_x, inlet_reed_v) = 1.0;
@@ -894,77 +1035,130 @@ namespace rectify::system
     for (std::size_t v = 0; v < 2; ++v)
       {
         const std::size_t ix = v == 0 ? state::outlet_reed_x : state::inlet_reed_x;
+        g[2 * v + 1] = g[4 + 2 * v] = g[5 + 2 * v] = 1.0;
         if (valves_ == ValveModel::ideal)
           {
             const double dp = driving_pressure(v, y, f);
             // opens when dp rises past +switch_pressure, shuts when it falls past -switch_pressure
-            g[v] = closed_[v] ? switch_pressure - dp : dp + switch_pressure;
+            g[2 * v] = closed_[v] ? switch_pressure - dp : dp + switch_pressure;
+            continue;
           }
-        else
-          {
-            const double      F   = v == 0 ? f.outlet_force : f.inlet_force;
-            const std::size_t ix2 = v == 0 ? state::outlet_reed2_x : state::inlet_reed2_x;
-            // seated with two modes: lifts off when the seat would have to pull
-            g[v] = reed_root(closed_[v], closed_[v] ? y[ix] : opening(v, y),
-                             closed_[v] && c_.k_r2 > 0 ? -seat_reaction(F, y[ix], y[ix + 1], y[ix2], y[ix2 + 1]) : F);
-          }
+        const double      F   = v == 0 ? f.outlet_force : f.inlet_force;
+        const std::size_t ix2 = v == 0 ? state::outlet_reed2_x : state::inlet_reed2_x;
+        const double      R   = c_.k_r2 > 0 ? seat_reaction(F, y[ix], y[ix + 1], y[ix2], y[ix2 + 1]) : 0.0;
+        if (at_stop_[v]) // held: leaves when the stop would have to pull
+          g[2 * v] = c_.k_r2 > 0 ? reed_lift_force - R : stop_root(true, y[ix], stop_lift_, F - c_.reed.stiffness * stop_lift_);
+        else // seated with two modes: lifts off when the seat would have to pull
+          g[2 * v] = reed_root(closed_[v], closed_[v] ? y[ix] : opening(v, y), closed_[v] && c_.k_r2 > 0 ? -R : F);
+        if (!closed_[v] && !at_stop_[v] && stop_lift_ < std::numeric_limits<double>::infinity())
+          g[2 * v + 1] = stop_root(false, opening(v, y), stop_lift_, 0.0);
+        const double rate = stress_rate(v, y);
+        g[4 + 2 * v]      = rate;  // falls through 0 at a maximum
+        g[5 + 2 * v]      = -rate; // and at a minimum
       }
+    for (std::size_t k = 0; k < cavity_nodes_.size(); ++k)
+      g[8 + k] = cavity_root(cavitating_[k] != 0, y[cavity_nodes_[k]], p_cavitation_);
   }
 
-  bool Model::handle_events(double, std::span<double> y, std::span<const int> found)
+  bool Model::handle_events(double t, std::span<double> y, std::span<const int> found)
   {
     bool changed = false;
     for (std::size_t v = 0; v < 2; ++v)
       {
-        if (found[v] == 0)
-          continue;
-        const std::size_t ix = v == 0 ? state::outlet_reed_x : state::inlet_reed_x;
-        changed              = true;
-        if (valves_ == ValveModel::ideal)
+        const bool contact = found[2 * v] != 0, stop = found[2 * v + 1] != 0;
+        if (contact || stop)
           {
-            closed_[v] = !closed_[v];
+            changed = true;
+            if (valves_ == ValveModel::ideal)
+              closed_[v] = !closed_[v];
+            else if (c_.k_r2 > 0)
+              two_mode_contact_event(v, t, y, stop && !contact);
+            else
+              contact_event(v, t, y, stop && !contact);
             continue;
           }
-        const std::size_t ix2 = v == 0 ? state::outlet_reed2_x : state::inlet_reed2_x;
-        if (c_.k_r2 > 0)
-          {
-            // Two modes: the seat stops the tip, not the reed. At impact an
-            // impulse on the tip (equal on both tip-normalised modes of equal
-            // modal mass) sets the tip's velocity to its rebound; the modes'
-            // difference keeps ringing while the tip is held (rhs). It lifts
-            // off when the seat would have to pull (roots).
-            double &x1 = y[ix], &v1 = y[ix + 1], &x2 = y[ix2], &v2 = y[ix2 + 1];
-            if (closed_[v])
-              {
-                x1 += reed_seat_tolerance - (x1 + x2); // a hair above the seat (reed.h)
-                closed_[v] = false;
-                continue;
-              }
-            ++n_impacts_;
-            const double s = x1 + x2;
-            x1 -= 0.5 * s;
-            x2 -= 0.5 * s;
-            const double tip_v   = v1 + v2;
-            const double rebound = c_.reed.restitution * std::max(-tip_v, 0.0);
-            v1 += 0.5 * (rebound - tip_v);
-            v2 += 0.5 * (rebound - tip_v);
-            const Flows  f = flows(y);
-            const double F = v == 0 ? f.outlet_force : f.inlet_force;
-            if (rebound < 1e-6 && -seat_reaction(F, x1, v1, x2, v2) <= reed_lift_force)
-              closed_[v] = true; // held
-            else if (rebound < 1e-6)
-              x1 += reed_seat_tolerance; // leaves again at once
-            continue;
-          }
-        if (!closed_[v])
-          {
-            ++n_impacts_;
-            y[ix] = 0.0; // the force at impact is the force with the reed at x = 0
-          }
-        const Flows f = flows(y);
-        closed_[v]    = reed_on_root(c_.reed, closed_[v], v == 0 ? f.outlet_force : f.inlet_force,
-                                     y[ix], y[ix + 1]);
+        if (found[4 + 2 * v] != 0 || found[5 + 2 * v] != 0)
+          log_event(t, v, found[4 + 2 * v] != 0 ? ReedEvent::stress_maximum : ReedEvent::stress_minimum, 0.0, y);
       }
+    for (std::size_t k = 0; k < cavity_nodes_.size(); ++k)
+      if (found[8 + k] != 0)
+        {
+          cavitating_[k] = !cavitating_[k];
+          changed        = true;
+        }
     return changed;
+  }
+
+  void Model::contact_event(std::size_t v, double t, std::span<double> y, bool stop_impact)
+  {
+    const std::size_t ix = v == 0 ? state::outlet_reed_x : state::inlet_reed_x;
+    double           &x = y[ix], &u = y[ix + 1];
+    if (stop_impact) // a free reed arrives at its stop
+      {
+        ++n_stop_impacts_;
+        const double speed = u;
+        x                  = stop_lift_;
+        log_event(t, v, ReedEvent::stop_impact, speed, y);
+        const Flows  f   = flows(y);
+        const double net = (v == 0 ? f.outlet_force : f.inlet_force) - c_.reed.stiffness * stop_lift_;
+        at_stop_[v]      = reed_on_stop(stop_restitution_, false, net, stop_lift_, x, u);
+        return;
+      }
+    if (at_stop_[v]) // released from the stop
+      {
+        at_stop_[v] = reed_on_stop(stop_restitution_, true, 0.0, stop_lift_, x, u);
+        return;
+      }
+    if (!closed_[v])
+      {
+        ++n_impacts_;
+        x = 0.0; // the force at impact is the force with the reed at x = 0
+        log_event(t, v, ReedEvent::seat_impact, -u, y);
+      }
+    const Flows f = flows(y);
+    closed_[v]    = reed_on_root(c_.reed, closed_[v], v == 0 ? f.outlet_force : f.inlet_force, x, u);
+  }
+
+  void Model::two_mode_contact_event(std::size_t v, double t, std::span<double> y, bool stop_impact)
+  {
+    // Two modes: seat and stop hold the tip, not the reed. At impact an
+    // impulse on the tip (equal on both tip-normalised modes of equal modal
+    // mass) sets the tip's velocity to its rebound; the modes' difference
+    // keeps ringing while the tip is held (rhs). It leaves when its
+    // contact would have to pull (roots).
+    const std::size_t ix = v == 0 ? state::outlet_reed_x : state::inlet_reed_x;
+    const std::size_t ix2 = v == 0 ? state::outlet_reed2_x : state::inlet_reed2_x;
+    double &x1 = y[ix], &v1 = y[ix + 1], &x2 = y[ix2], &v2 = y[ix2 + 1];
+    if (closed_[v])
+      {
+        x1 += reed_seat_tolerance - (x1 + x2); // a hair above the seat (reed.h)
+        closed_[v] = false;
+        return;
+      }
+    if (at_stop_[v])
+      {
+        x1 += stop_lift_ - reed_seat_tolerance - (x1 + x2); // a hair below the stop
+        at_stop_[v] = false;
+        return;
+      }
+    const double level = stop_impact ? stop_lift_ : 0.0;
+    ++(stop_impact ? n_stop_impacts_ : n_impacts_);
+    const double s = x1 + x2 - level;
+    x1 -= 0.5 * s;
+    x2 -= 0.5 * s;
+    const double tip_v = v1 + v2;
+    log_event(t, v, stop_impact ? ReedEvent::stop_impact : ReedEvent::seat_impact, stop_impact ? tip_v : -tip_v, y);
+    const double rebound = stop_impact ? -stop_restitution_ * std::max(tip_v, 0.0) :
+                                         c_.reed.restitution * std::max(-tip_v, 0.0);
+    v1 += 0.5 * (rebound - tip_v);
+    v2 += 0.5 * (rebound - tip_v);
+    if (std::abs(rebound) >= 1e-6)
+      return;
+    const Flows  f = flows(y);
+    const double R = seat_reaction(v == 0 ? f.outlet_force : f.inlet_force, x1, v1, x2, v2);
+    if (stop_impact ? R <= reed_lift_force : -R <= reed_lift_force)
+      (stop_impact ? at_stop_[v] : closed_[v]) = true; // held
+    else
+      x1 += stop_impact ? -reed_seat_tolerance : reed_seat_tolerance; // leaves again at once
   }
 } // namespace rectify::system

@@ -12,8 +12,9 @@
 //   m_eff x_p'' = N q k_td I - (b_f + b_eff) x_p' + b_f x_f' - (k_eff + k_f) x_p + k_f x_f   (3.6)
 //   m_f   x_f'' = b_f x_p' - b_f x_f' + k_f x_p - k_f x_f - p_ch A_pi      (3.7, sign corrected)
 //   m_l x_act'' = (p_h - p_l) A_po - b_l x_act' - k_l x_act                (3.8)
-//   m_r x_ro''  = (p_ch - p_o) A(x_ro) - b_r x_ro' - k_r x_ro,  x_ro >= 0  (3.9)
-//   m_r x_ri''  = (p_i - p_ch) A(x_ri) - b_r x_ri' - k_r x_ri,  x_ri >= 0  (3.10)
+//   m_r x_ro''  = (p_ch - p_o) A(x_ro) - b_r x_ro' - k_r x_ro,  0 <= x_ro <= x_stop  (3.9)
+//   m_r x_ri''  = (p_i - p_ch) A(x_ri) - b_r x_ri' - k_r x_ri,  0 <= x_ri <= x_stop  (3.10)
+//   (seat and stop are contact events, system/reed.h; the stop is not the thesis's)
 //   A = A_r (thesis) or, from a map set, A_eff(x) open and the seated area on the seat
 //   C_ch p_ch'  = A_pi x_p' + q_in - q_out                                 (3.31)
 //   C_acc p_acc' = q_acc,  C_h p_h' = q_out - A_po x_act',  C_l p_l' = q_low + A_po x_act'
@@ -23,9 +24,16 @@
 // junction -R6- low side. The junction has no capacitance: p_a follows from
 // Kirchhoff's current law. Flows are computed as such (node form), which is
 // algebraically the same as eqs. 3.32-3.36 once their typos are corrected.
+//
+// Cavitation ([fluid] cavitation, system/cavitation.h): the pressure states
+// of the oil volumes (chamber, high and low sides, the outlet line's nodes)
+// are each volume's liquid pressure psi; the model reads max(psi, p_c), the
+// volume's cavity takes up the rest. Off: the thesis's unbounded pressures.
 #pragma once
 
 #include <array>
+#include <limits>
+#include <utility>
 #include <optional>
 #include <nlohmann/json.hpp>
 #include <span>
@@ -163,6 +171,19 @@ namespace rectify::system
     std::array<std::optional<maps::LoadingMap::Value>, 2> loading;
   };
 
+  /// What bounds the states a run may reach and still describe hardware
+  /// (system/validity.h): the reed's material, its linear range, the stop's
+  /// lift in the geometry and the oil's cavitation pressure.
+  struct StateLimits
+  {
+    ReedMaterial material;
+    double       large_deflection_opening_m = 0; ///< linear elasticity's end
+    double       geometric_stop_lift_m      = 0; ///< where the stop (or the ceiling) is, on or off
+    double       cavitation_pressure_Pa     = 0; ///< absolute
+    bool         stop_on = false, cavitation_on = false;
+    std::string  stress_source;
+  };
+
   class Model : public OdeSystem
   {
   public:
@@ -185,11 +206,17 @@ namespace rectify::system
     /// difference-quotient Jacobian (every effect's states; valves open or
     /// on their seats; tests Effects.RhsReadsCoversEveryDependence, ReedLoading.RhsReads...).
     std::vector<std::vector<std::size_t>> rhs_reads() const override;
-    std::size_t n_roots() const override { return 2; }
+    /// Per valve v: 2v its seat or held contact, 2v + 1 its stop, 4 + 2v and
+    /// 5 + 2v its root stress's maximum and minimum (logged, nothing
+    /// changes); 8 + k the cavitation of volume k (cavity_node(k)).
+    std::size_t n_roots() const override { return 8 + cavity_nodes_.size(); }
     void        roots(double t, std::span<const double> y, std::span<double> g) const override;
     bool handle_events(double t, std::span<double> y, std::span<const int> found) override;
 
     Flows               flows(std::span<const double> y) const;
+    /// The state as the physics reads it: each cavitating volume's pressure
+    /// at the cavitation pressure (system/cavitation.h); y itself without cavitation.
+    std::vector<double> physical_state(std::span<const double> y) const;
     /// Tip opening of valve v (0 outlet, 1 inlet): first plus second mode.
     double              opening(std::size_t v, std::span<const double> y) const;
     /// The fluid's loading on open reed `v` (docs/fluid-loading.md) at its
@@ -239,16 +266,60 @@ namespace rectify::system
     /// Valve `v` (0 outlet, 1 inlet) is closed: reed on its seat (dynamic) or
     /// valve shut (ideal).
     bool closed(std::size_t v) const { return closed_[v]; }
+    /// Valve `v`'s reed is held at its stop.
+    bool at_stop(std::size_t v) const { return at_stop_[v]; }
+    void set_at_stop(std::size_t v, bool held) { at_stop_[v] = held; }
+    /// The tip opening at the stop (infinity: no stop, [reed] stop = "off").
+    double stop_lift() const { return stop_lift_; }
     /// Sets the discrete state: both valves closed, reeds on their seats.
     void reset();
     /// Sets one valve's discrete state (tests, and starting from a given state).
     void set_closed(std::size_t v, bool closed) { closed_[v] = closed; }
     std::size_t n_seat_impacts() const { return n_impacts_; }
+    std::size_t n_stop_impacts() const { return n_stop_impacts_; }
+
+    /// What happened to a reed at an event, for the run's statistics.
+    struct ReedEvent
+    {
+      enum Kind
+      {
+        seat_impact,
+        stop_impact,
+        stress_maximum,
+        stress_minimum
+      };
+      double      t;
+      std::size_t valve;
+      Kind        kind;
+      double      velocity;    ///< the tip's speed toward the seat or stop before an impact [m/s]
+      double      opening;     ///< tip opening [m]
+      double      root_stress; ///< [Pa]
+    };
+    /// Keep ReedEvents from now on (a run's sampling drains them).
+    void                   record_events(bool on) { record_events_ = on; }
+    std::vector<ReedEvent> take_events() { return std::exchange(events_, {}); }
+
+    /// The reed's bending stress at its root, valve v at state y [Pa]:
+    /// per unit opening of each mode ([reed] root_stress_...) times its
+    /// modal coordinate; positive: the underside in tension.
+    double root_stress(std::size_t v, std::span<const double> y) const;
+
+    /// The volumes that can cavitate: their pressure states (chamber, high
+    /// side, low side, the outlet line's nodes), none without cavitation.
+    const std::vector<std::size_t> &cavity_nodes() const { return cavity_nodes_; }
+    /// Volume k's cavity at state y [m^3] (0 when its liquid holds).
+    double cavity_volume(std::size_t k, std::span<const double> y) const;
+    bool   cavitating(std::size_t k) const { return cavitating_[k] != 0; }
+    /// Sets each volume's discrete state from y (a start from a given state).
+    void   sync_cavitation(std::span<const double> y);
+    /// The cavitation pressure as a gauge state (about the bias).
+    double cavitation_gauge_pressure() const { return p_cavitation_; }
 
     /// The output piston's friction force at its velocity v ([load]):
     /// F_c [1 + (F_s / F_c - 1) exp(-(v / v_st)^2)] tanh(v / v_s).
     double                      friction_force(double v) const;
     const ModelConstants       &constants() const { return c_; }
+    const StateLimits          &limits() const { return limits_; }
     const Drive                &drive() const { return drive_; }
     const maps::MapSet         &valve_map(std::size_t v) const { return maps_[v]; }
     /// The opening force's area of valve v at state y and its slope dA/dx:
@@ -258,18 +329,45 @@ namespace rectify::system
     Scenario                    scenario() const { return scenario_; }
 
   private:
+    Flows flows_at(std::span<const double> y) const;
+    void  rhs_at(double t, std::span<const double> y, std::span<double> ydot) const;
+    void  jacobian_at(std::span<const double> y, DenseView J) const;
+    /// Calls f with the physical state of y (cavitating volumes clamped),
+    /// without a copy where nothing is.
+    template <typename F>
+    void with_physical(std::span<const double> y, const F &f) const;
+    /// The compliance of volume node k (a cavity_nodes_ index) at gauge pressure p.
+    double node_compliance(std::size_t k, double p) const;
+    /// A seat or stop root of valve v with one mode (x, v: its tip).
+    void contact_event(std::size_t v, double t, std::span<double> y, bool stop_root);
+    /// The same with two modes: the contact holds the tip, not the reed.
+    void two_mode_contact_event(std::size_t v, double t, std::span<double> y, bool stop_root);
+    void log_event(double t, std::size_t v, ReedEvent::Kind kind, double velocity, std::span<const double> y);
+    /// The root stress's rate of valve v (its extrema's root function; 1 where the reed is held).
+    double stress_rate(std::size_t v, std::span<const double> y) const;
+
     /// R and dR/dx of valve v at state y.
     maps::ResistanceMap::Value valve_resistance(std::size_t v, std::span<const double> y) const;
     /// Pressure difference that drives flow forward through valve v.
     static double driving_pressure(std::size_t v, std::span<const double> y, const Flows &f);
 
     ModelConstants        c_;
+    StateLimits           limits_;
     std::array<maps::MapSet, 2> maps_;
     ValveModel            valves_;
     Scenario              scenario_;
     Drive                 drive_;
     std::array<bool, 2>   closed_{true, true};
-    std::size_t           n_impacts_ = 0;
+    std::array<bool, 2>   at_stop_{false, false};
+    std::size_t           n_impacts_ = 0, n_stop_impacts_ = 0;
+    double                stop_lift_ = std::numeric_limits<double>::infinity();
+    double                stop_restitution_ = 0.0;
+    double                stress1_ = 0.0, stress2_ = 0.0; ///< root stress per unit opening of each mode
+    bool                  record_events_ = false;
+    std::vector<ReedEvent> events_;
+    std::vector<std::size_t> cavity_nodes_;   ///< pressure states that can cavitate
+    std::vector<char>        cavitating_;     ///< per cavity node: its cavity is open
+    double                   p_cavitation_ = 0.0; ///< gauge
     bool                  loading_   = false; ///< [reed] fluid_loading = "map" (dynamic valves)
     std::array<double, 2> loading_scale_{1.0, 1.0};      ///< gamma = mean A_m / A_eff of each valve's map
     std::array<double, 2> structural_damping_{0.0, 0.0}; ///< b_s with the mass m_r / gamma

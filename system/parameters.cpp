@@ -136,6 +136,8 @@ namespace rectify::system
                        ": must be above the first mode's " +
                        format_number(p.natural_frequency_Hz()) +
                        " Hz (or 0 for none)");
+    p.stop             = f.text(t, "stop", p.stop, {"on", "off"});
+    p.stop_restitution = f.real(t, "stop_restitution", p.stop_restitution, Bounds{0.0, 1.0, true, false});
     return p;
   }
 
@@ -322,6 +324,36 @@ namespace rectify::system
     }
   } // namespace
 
+  std::pair<double, double> beam_root_stress_per_opening(const ValveGeometry &g, const ReedMaterial &m)
+  {
+    const double L = g.reed_length_m, t = g.reed_thickness_m, a = std::min(g.port_center_x_m, L);
+    const double beta2 = 4.694091132974175 / L; // the cantilever's second root of cos(bL) cosh(bL) = -1
+    return {3.0 * m.youngs_modulus_Pa * t / (a * (3.0 * L - a)), -0.5 * m.youngs_modulus_Pa * t * beta2 * beta2};
+  }
+
+  namespace
+  {
+    /// What bounds the reed's state, from [geometry], [stiffness] and
+    /// [reed_material]: the stop's lift, the opening beyond which linear
+    /// elasticity fails, and the root stress per opening by beam theory (a
+    /// map set's or reed map's FE value replaces it).
+    void read_reed_limits(const CaseFile &f, SystemParameters &p)
+    {
+      const auto geometry   = ValveGeometry::from_case(f);
+      p.reed.stop_lift_m    = geometry.stop_lift_m();
+      const double ratio    = f.real("stiffness", "max_linear_deflection_ratio", 0.1, Bounds::open(0.0, 1.0));
+      p.reed.large_deflection_opening_m = ratio * geometry.reed_length_m;
+      const auto [s1, s2]   = beam_root_stress_per_opening(geometry, p.material);
+      p.reed.root_stress_per_opening_Pa_per_m             = s1;
+      p.reed.second_mode_root_stress_per_opening_Pa_per_m = s2;
+      p.reed.stress_source = std::string("beam theory of [geometry]'s reed (a uniform cantilever, loaded at its ") +
+                             (geometry.is_shorthand() ? "port's centre)" : "first port's centre: approximate for "
+                                                                            "this outline)");
+      if (!f.has("reed", "film_cavitation_pressure_Pa"))
+        p.reed.film_cavitation_pressure_Pa = p.fluid.cavitation_pressure_Pa;
+    }
+  } // namespace
+
   /// [uncertain] "table.key" = [lower, upper]: a real parameter of the
   /// model, 0 < lower < upper, its own value inside (a fit starts there).
   static void read_uncertain(const CaseFile &f, SystemParameters &p)
@@ -380,6 +412,8 @@ namespace rectify::system
     p.load        = LoadParameters::from_case(f);
     p.drive       = DriveParameters::from_case(f);
     p.solver      = SolverParameters::from_case(f);
+    p.material    = ReedMaterial::from_case(f);
+    read_reed_limits(f, p);
     if (read_map_sets)
       apply_map_sets(f, p);
     read_uncertain(f, p);
@@ -428,6 +462,7 @@ namespace rectify::system
       {"reed.pressure_area_m2", &reed.pressure_area_m2},
       {"reed.restitution", &reed.restitution},
       {"reed.second_mode_frequency_Hz", &reed.second_mode_frequency_Hz},
+      {"reed.stop_restitution", &reed.stop_restitution},
       {"valves.ideal_open_resistance_Pa_s_per_m3", &valves.ideal_open_resistance_Pa_s_per_m3},
       {"valves.leak_resistance_Pa_s_per_m3", &valves.leak_resistance_Pa_s_per_m3},
       {"valves.leak_area_m2", &valves.leak_area_m2},
@@ -494,6 +529,12 @@ namespace rectify::system
       }
   }
 
+  void use_thesis_model(SystemParameters &p)
+  {
+    p.reed.stop       = "off";
+    p.fluid.cavitation = "none";
+  }
+
   std::array<maps::MapSet, 2> load_valve_maps(const SystemParameters &p)
   {
     const auto from_map = [&]() {
@@ -522,7 +563,9 @@ namespace rectify::system
         {"gas_heat_capacity_ratio", fluid.gas_heat_capacity_ratio},
         {"bias_pressure_Pa", fluid.bias_pressure_Pa},
         {"free_air_fraction", fluid.free_air_fraction},
-        {"free_air_law", fluid.free_air_law}}},
+        {"free_air_law", fluid.free_air_law},
+        {"cavitation", fluid.cavitation},
+        {"cavitation_pressure_Pa", fluid.cavitation_pressure_Pa}}},
       {"transducer",
        {{"rod_youngs_modulus_Pa", transducer.rod_youngs_modulus_Pa},
         {"rod_area_m2", transducer.rod_area_m2},
@@ -550,7 +593,20 @@ namespace rectify::system
         {"seat_film_m", reed.seat_film_m},
         {"film_suction_limit", reed.film_suction_limit},
         {"film_cavitation_pressure_Pa", reed.film_cavitation_pressure_Pa},
-        {"source", reed.source}}},
+        {"source", reed.source},
+        {"stop", reed.stop},
+        {"stop_lift_m", reed.stop_lift_m},
+        {"stop_restitution", reed.stop_restitution},
+        {"root_stress_per_opening_Pa_per_m", reed.root_stress_per_opening_Pa_per_m},
+        {"second_mode_root_stress_per_opening_Pa_per_m", reed.second_mode_root_stress_per_opening_Pa_per_m},
+        {"stress_source", reed.stress_source},
+        {"large_deflection_opening_m", reed.large_deflection_opening_m}}},
+      {"reed_material",
+       {{"youngs_modulus_Pa", material.youngs_modulus_Pa},
+        {"poisson_ratio", material.poisson_ratio},
+        {"density_kg_per_m3", material.density_kg_per_m3},
+        {"endurance_limit_Pa", material.endurance_limit_Pa},
+        {"ultimate_strength_Pa", material.ultimate_strength_Pa}}},
       {"valves",
        {{"outlet_map_set", valves.map_set[0]},
         {"inlet_map_set", valves.map_set[1]},

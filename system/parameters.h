@@ -13,6 +13,8 @@
 
 #include "common/case_file.h"
 #include "common/fluid.h"
+#include "common/reed_material.h"
+#include "common/valve_geometry.h"
 #include "maps/map_set.h"
 
 namespace rectify::system
@@ -86,7 +88,25 @@ namespace rectify::system
     /// force is at most (p_pocket - p_cav) times the map set's film modal
     /// area; "none": unlimited (the quasi-static Stokes film as computed).
     std::string film_suction_limit = "cavitation";
-    double      film_cavitation_pressure_Pa = 1.0e5; ///< absolute: gas leaves oil saturated at 1 atm
+    double      film_cavitation_pressure_Pa = 1.0e5; ///< absolute; default: [fluid] cavitation_pressure_Pa
+    /// The stop (guard) that limits the reed's lift ([geometry]
+    /// stop_height_m): "on", a contact event like the seat's at the tip
+    /// opening stop_lift_m; "off", no stop (the thesis's model: a reed
+    /// beyond stop_lift_m has passed its ceiling, which a run reports).
+    std::string stop = "on";
+    double      stop_lift_m = 1.873e-3;  ///< tip opening at the stop, from [geometry]
+    double      stop_restitution = 0.0;  ///< stop impact: rebound speed / impact speed
+    /// The reed's bending stress at its root (the clamp's underside, in
+    /// tension while the reed opens) per unit tip opening of the first
+    /// mode [Pa/m], and of the second mode (signed, referred to the same
+    /// surface): from the map set's or reed map's FE solve, else beam
+    /// theory of [geometry] and [reed_material] (stress_source says which).
+    double      root_stress_per_opening_Pa_per_m = 0.0;
+    double      second_mode_root_stress_per_opening_Pa_per_m = 0.0;
+    std::string stress_source;
+    /// Tip opening beyond which linear elasticity no longer holds ([stiffness]
+    /// max_linear_deflection_ratio x the reed's length).
+    double      large_deflection_opening_m = 0.61e-3;
     /// Reads [reed]. With `properties_map` set, k_r and m_r are interpolated
     /// (linearly in thickness) from that map at `properties_thickness_m`,
     /// the mass column chosen by `properties_mass`; giving them in the case
@@ -243,6 +263,7 @@ namespace rectify::system
     LoadParameters        load;
     DriveParameters       drive;
     SolverParameters      solver;
+    ReedMaterial          material; ///< [reed_material]: the Goodman factor's fatigue data
     std::vector<UncertainParameter> uncertain; ///< [uncertain]; empty if none
 
     /// The real-valued parameter [table] key (a pointer into this struct), or
@@ -282,6 +303,14 @@ namespace rectify::system
   /// leaves the case's. InputError unless the fluid loading is "map" and the
   /// values are in [reed]'s ranges.
   void use_seat_film(SystemParameters &parameters, double seat_film_m, const std::string &suction_limit);
+  /// The thesis's model: no stop ([reed] stop = "off") and no cavitation
+  /// ([fluid] cavitation = "none"); its runs are the thesis model's to the bit.
+  void use_thesis_model(SystemParameters &parameters);
+  /// Beam theory's root bending stress per unit tip opening of a uniform
+  /// cantilever (length L, thickness t, modulus E) bent into the reference
+  /// "beam" shape, a point load at a: 3 E t / (a (3L - a)); and its second
+  /// mode's (Euler-Bernoulli, unit tip deflection): -(E t / 2) (4.694 / L)^2.
+  std::pair<double, double> beam_root_stress_per_opening(const ValveGeometry &geometry, const ReedMaterial &material);
 
   /// The two valves' maps (0 outlet, 1 inlet): their map sets, or the R(x)
   /// map with the constant area A_r. InputError for a missing or bad file.

@@ -1,11 +1,14 @@
-// One reed valve tip as a 1-DOF oscillator on a seat (thesis eqs. 3.9, 3.10):
+// One reed valve tip as a 1-DOF oscillator between its seat and its stop
+// (thesis eqs. 3.9, 3.10, and the stop a real valve has):
 //
-//   m x'' + b x' + k x = F,   x >= 0,
+//   m x'' + b x' + k x = F,   0 <= x <= x_stop,
 //
-// F the opening pressure force. The seat is a contact event, not a clamp:
-// a free reed is stopped when x falls through 0 (root of x), a seated reed
-// lifts when F exceeds a tiny threshold (root of lift_force - F). The model
-// and the tests use these same functions.
+// F the opening pressure force. Seat and stop are contact events, not
+// clamps: a free reed is stopped when x falls through 0 (root of x) or rises
+// through x_stop (root of x_stop - x); a seated reed lifts when F exceeds a
+// tiny threshold (root of lift_force - F), a reed held at its stop leaves
+// when the net force F - k x_stop turns to closing. The model and the tests
+// use these same functions.
 #pragma once
 
 #include <algorithm>
@@ -20,7 +23,7 @@ namespace rectify::system
     double mass;        ///< m [kg]
     double damping;     ///< b [N s/m]
     double area;        ///< A_r [m^2]: F = dp * A_r
-    double restitution; ///< rebound speed / impact speed, in [0, 1)
+    double restitution; ///< rebound speed / impact speed at the seat, in [0, 1)
   };
 
   /// A seated reed lifts when its opening force exceeds this (1e-9 N, five
@@ -88,6 +91,39 @@ namespace rectify::system
         return true;
       }
     v = rebound; // bounces, or (force > 0) leaves again from rest
+    return false;
+  }
+
+  /// Root function of the stop at x_stop: a free reed's impact (x_stop - x
+  /// falls through 0); a held reed's release, when the net force on it at
+  /// rest, F - k x_stop, falls below -reed_lift_force (the stop would have to pull).
+  inline double stop_root(bool at_stop, double x, double x_stop, double net_force)
+  {
+    return at_stop ? net_force + reed_lift_force : x_stop - x;
+  }
+
+  /// Applies a located stop root to (x, v) and returns whether the reed is
+  /// now held at its stop. A held reed leaves from rest, a hair below the
+  /// stop (reed_seat_tolerance, for the same reason as at the seat). A free
+  /// reed arriving at v > 0 rebounds at restitution x v, or, if that is
+  /// negligible and the net force F - k x_stop at the stop holds it there,
+  /// stays.
+  inline bool reed_on_stop(double restitution, bool at_stop, double net_force, double x_stop, double &x, double &v)
+  {
+    if (at_stop)
+      {
+        x = x_stop - reed_seat_tolerance;
+        v = 0.0;
+        return false;
+      }
+    x                    = x_stop;
+    const double rebound = restitution * std::max(v, 0.0);
+    if (net_force >= -reed_lift_force && rebound < 1e-6)
+      {
+        v = 0.0;
+        return true;
+      }
+    v = -rebound; // bounces, or (net force closing) leaves again from rest
     return false;
   }
 } // namespace rectify::system

@@ -36,6 +36,17 @@ namespace rectify::system
     return r;
   }
 
+  namespace
+  {
+    nlohmann::json volumes_json(const std::vector<VolumeStatistics> &volumes)
+    {
+      nlohmann::json j = nlohmann::json::array();
+      for (const auto &v : volumes)
+        j.push_back(v.to_json());
+      return j;
+    }
+  } // namespace
+
   nlohmann::json RunResult::to_json() const
   {
     return {{"frequency_Hz", frequency_Hz},
@@ -57,7 +68,11 @@ namespace rectify::system
             {"piston_stroke_m", piston_stroke_m},
             {"pumped_volume_m3", pumped_volume_m3},
             {"seat_impacts", n_seat_impacts},
+            {"stop_impacts", n_stop_impacts},
             {"samples_beyond_map", n_samples_beyond_map},
+            {"validity", validity.to_json()},
+            {"valves", {{"outlet", valves[0].to_json()}, {"inlet", valves[1].to_json()}}},
+            {"volumes", volumes_json(volumes)},
             {"warnings", warnings},
             {"cvode", system::to_json(stats)}};
   }
@@ -98,7 +113,12 @@ namespace rectify::system
       "inlet_flow_m3_per_s",
       "piston_flow_m3_per_s",
       "outlet_resistance_Pa_s_per_m3",
-      "inlet_resistance_Pa_s_per_m3"};
+      "inlet_resistance_Pa_s_per_m3",
+      "outlet_root_stress_Pa",
+      "inlet_root_stress_Pa",
+      "chamber_cavity_m3",
+      "high_cavity_m3",
+      "low_cavity_m3"};
 
     /// Decides when the cycle means of the settling metric have settled:
     /// blocks of `block` cycles; settled when the last two block-to-block
@@ -210,8 +230,13 @@ namespace rectify::system
                                  " entries, the model " + std::to_string(y0.size()));
         y0 = start->y;
         for (std::size_t v = 0; v < 2; ++v)
-          model.set_closed(v, start->closed[v]);
+          {
+            model.set_closed(v, start->closed[v]);
+            model.set_at_stop(v, start->at_stop[v]);
+          }
       }
+    model.sync_cavitation(y0);
+    model.record_events(true);
     // Settling may run at a looser tolerance than the measured cycles.
     RunOptions startup_options = options;
     if (options.settle && options.startup_relative_tolerance > 0)
@@ -239,9 +264,17 @@ namespace rectify::system
     std::vector<double> row(series_columns.size());
     std::vector<double> window_means;
     std::vector<std::vector<double>> sections;
+    WindowMonitor       monitor(model);
     std::vector<double> section_min(section_states.size(), 1e300),
       section_max(section_states.size(), -1e300);
 
+    const auto cavity = [&](std::span<const double> y, std::size_t i) {
+      const auto &nodes = model.cavity_nodes();
+      for (std::size_t k = 0; k < nodes.size(); ++k)
+        if (nodes[k] == i)
+          return model.cavity_volume(k, y);
+      return 0.0;
+    };
     while (true)
       {
         const std::vector<double> cycle_start(integrator.state().begin(),
@@ -252,12 +285,16 @@ namespace rectify::system
                                                              static_cast<double>(spc)) *
                              period;
             integrator.advance_to(t);
-            const auto  y  = integrator.state();
-            const Flows fl = model.flows(y);
+            const auto  state = integrator.state();
+            const auto  y     = model.physical_state(state); // the pressures the oil has
+            const Flows fl    = model.flows(y);
             const double x_o = model.opening(0, y), x_i = model.opening(1, y);
             min_reed       = std::min({min_reed, x_o, x_i});
+            const auto events = model.take_events();
             if (measuring)
               {
+                monitor.sample(state);
+                monitor.add(events);
                 x_p_min  = std::min(x_p_min, y[piston_x]);
                 x_p_max  = std::max(x_p_max, y[piston_x]);
                 max_ro   = std::max(max_ro, x_o);
@@ -291,7 +328,12 @@ namespace rectify::system
                        fl.q_inlet,
                        c.A_pi * y[piston_v],
                        fl.R1,
-                       fl.R2};
+                       fl.R2,
+                       model.root_stress(0, y),
+                       model.root_stress(1, y),
+                       cavity(state, state::chamber_p),
+                       cavity(state, state::high_p),
+                       cavity(state, state::low_p)};
                 result.series->add_row(row);
               }
           }
@@ -356,6 +398,8 @@ namespace rectify::system
     result.max_inlet_reed_opening_m  = max_ri;
     result.min_reed_opening_m        = min_reed;
     result.n_seat_impacts            = model.n_seat_impacts();
+    result.n_stop_impacts            = model.n_stop_impacts();
+    monitor.finish(result.valves, result.volumes, result.validity);
     result.stats                     = integrator.stats();
 
     // Volume balances over the run: each holds exactly for the equations, so
@@ -380,13 +424,11 @@ namespace rectify::system
     result.volume_balance_rel_error =
       std::max({std::abs(e_out), std::abs(e_in), std::abs(e_ch)}) / scale;
     result.end_state.y.assign(y.begin(), y.end());
-    result.end_state.closed = {model.closed(0), model.closed(1)};
+    result.end_state.closed  = {model.closed(0), model.closed(1)};
+    result.end_state.at_stop = {model.at_stop(0), model.at_stop(1)};
+    model.record_events(false);
 
     result.min_absolute_chamber_pressure_Pa = c.p_bias + min_p_ch;
-    if (result.min_absolute_chamber_pressure_Pa < 0.0)
-      result.warnings.push_back(
-        "the chamber pressure falls to " + format_number(result.min_absolute_chamber_pressure_Pa) +
-        " Pa absolute: the oil would cavitate, which the model does not represent");
     if (result.n_samples_beyond_map > 0 && c.out_of_range == maps::OutOfRange::error)
       throw InputError("a reed opened to " + format_number(std::max(max_ro, max_ri)) +
                        " m, beyond the last node of resistance map '" +

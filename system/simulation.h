@@ -9,6 +9,7 @@
 
 #include "common/io.h"
 #include "system/model.h"
+#include "system/validity.h"
 
 namespace rectify::system
 {
@@ -48,6 +49,7 @@ namespace rectify::system
   {
     std::vector<double> y;
     std::array<bool, 2> closed{true, true};
+    std::array<bool, 2> at_stop{false, false}; ///< each reed held at its stop
   };
 
   struct RunResult
@@ -74,8 +76,14 @@ namespace rectify::system
     double      min_absolute_chamber_pressure_Pa = 0;
     double      piston_stroke_m = 0; ///< max - min piston position over the measured window
     double      pumped_volume_m3 = 0; ///< net volume through the outlet valve, measured window
-    std::size_t n_seat_impacts = 0;
+    std::size_t n_seat_impacts = 0, n_stop_impacts = 0;
     std::size_t n_samples_beyond_map = 0;
+    /// The measured window: each reed's openings, root stress, Goodman
+    /// factor and impacts; each volume's lowest pressure and cavity; and
+    /// whether the run describes a state hardware can reach.
+    std::array<ValveStatistics, 2> valves;
+    std::vector<VolumeStatistics>  volumes;
+    Validity                       validity;
     std::vector<std::string> warnings;
     std::optional<CsvTable> series;
     StartState  end_state; ///< the state at the end of the run (a whole number of cycles)

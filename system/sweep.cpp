@@ -51,18 +51,47 @@ namespace rectify::system
   {
     return "series,frequency_Hz,stored_pressure_Pa,mean_velocity_m_per_s,settled,metric_stderr,"
            "regime,startup_cycles,measured_cycles,wall_time_s,volume_balance_rel_error,"
-           "cvode_steps,rhs_evaluations,jacobian_evaluations,events,warnings";
+           "cvode_steps,rhs_evaluations,jacobian_evaluations,events,warnings,"
+           "valid,beyond_map,beyond_stop,below_cavitation_pressure,goodman_below_1,at_stop,cavitating,"
+           "large_deflection,max_outlet_opening_m,max_inlet_opening_m,goodman_factor,max_root_stress_Pa,"
+           "max_seat_impact_m_per_s,max_stop_impact_m_per_s,max_cavity_volume_m3,min_absolute_pressure_Pa";
+  }
+
+  void SweepPoint::set_validity(const RunResult &r)
+  {
+    const auto &v = r.validity;
+    valid = v.valid(), beyond_map = v.beyond_map, beyond_stop = v.beyond_stop;
+    below_cavitation_pressure = v.below_cavitation_pressure, goodman_below_1 = v.goodman_below_1;
+    at_stop = v.at_stop, cavitating = v.cavitating, large_deflection = v.large_deflection;
+    max_outlet_opening_m     = r.valves[0].max_opening_m;
+    max_inlet_opening_m      = r.valves[1].max_opening_m;
+    goodman_factor           = std::min(r.valves[0].goodman_factor, r.valves[1].goodman_factor);
+    max_root_stress_Pa       = std::max(r.valves[0].max_root_stress_Pa, r.valves[1].max_root_stress_Pa);
+    max_seat_impact_m_per_s  = std::max(r.valves[0].max_seat_impact_m_per_s, r.valves[1].max_seat_impact_m_per_s);
+    max_stop_impact_m_per_s  = std::max(r.valves[0].max_stop_impact_m_per_s, r.valves[1].max_stop_impact_m_per_s);
+    max_cavity_volume_m3     = 0;
+    min_absolute_pressure_Pa = std::numeric_limits<double>::infinity();
+    for (const auto &vol : r.volumes)
+      {
+        max_cavity_volume_m3     = std::max(max_cavity_volume_m3, vol.max_cavity_volume_m3);
+        min_absolute_pressure_Pa = std::min(min_absolute_pressure_Pa, vol.min_absolute_pressure_Pa);
+      }
   }
 
   std::string to_csv_row(const SweepPoint &p)
   {
-    char buf[512];
+    char buf[1024];
     std::snprintf(buf, sizeof(buf),
-                  "%s,%.17g,%.17g,%.17g,%d,%.17g,%s,%zu,%zu,%.6g,%.6g,%ld,%ld,%ld,%ld,%zu",
+                  "%s,%.17g,%.17g,%.17g,%d,%.17g,%s,%zu,%zu,%.6g,%.6g,%ld,%ld,%ld,%ld,%zu,"
+                  "%d,%d,%d,%d,%d,%d,%d,%d,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g",
                   p.series.c_str(), p.frequency_Hz, p.stored_pressure_Pa, p.mean_velocity_m_per_s,
                   p.settled ? 1 : 0, p.metric_stderr, p.regime.c_str(), p.startup_cycles,
                   p.measured_cycles, p.wall_time_s, p.volume_balance_rel_error, p.steps,
-                  p.rhs_evaluations, p.jacobian_evaluations, p.events, p.warnings);
+                  p.rhs_evaluations, p.jacobian_evaluations, p.events, p.warnings, p.valid, p.beyond_map,
+                  p.beyond_stop, p.below_cavitation_pressure, p.goodman_below_1, p.at_stop, p.cavitating,
+                  p.large_deflection, p.max_outlet_opening_m, p.max_inlet_opening_m, p.goodman_factor,
+                  p.max_root_stress_Pa, p.max_seat_impact_m_per_s, p.max_stop_impact_m_per_s,
+                  p.max_cavity_volume_m3, p.min_absolute_pressure_Pa);
     return buf;
   }
 
@@ -85,7 +114,7 @@ namespace rectify::system
       std::string              c;
       while (std::getline(in, c, ','))
         cell.push_back(c);
-      if (cell.size() != 16)
+      if (cell.size() != 32)
         return false;
       try
         {
@@ -107,6 +136,15 @@ namespace rectify::system
           p.jacobian_evaluations  = std::stol(cell[13]);
           p.events                = std::stol(cell[14]);
           p.warnings              = std::stoul(cell[15]);
+          bool *flags[] = {&p.valid,      &p.beyond_map, &p.beyond_stop,      &p.below_cavitation_pressure,
+                           &p.goodman_below_1, &p.at_stop, &p.cavitating, &p.large_deflection};
+          for (std::size_t i = 0; i < 8; ++i)
+            *flags[i] = std::stoi(cell[16 + i]) != 0;
+          double *numbers[] = {&p.max_outlet_opening_m,    &p.max_inlet_opening_m,     &p.goodman_factor,
+                               &p.max_root_stress_Pa,      &p.max_seat_impact_m_per_s, &p.max_stop_impact_m_per_s,
+                               &p.max_cavity_volume_m3,    &p.min_absolute_pressure_Pa};
+          for (std::size_t i = 0; i < 8; ++i)
+            *numbers[i] = std::stod(cell[24 + i]);
         }
       catch (const std::exception &)
         {
@@ -124,7 +162,10 @@ namespace rectify::system
         if (ch == ',' || ch == '\n' || ch == '\r')
           ch = ';';
       const double nan = std::numeric_limits<double>::quiet_NaN();
-      return {series, frequency, nan, nan, false, nan, text, 0, 0, 0.0, nan, 0, 0, 0, 0, 1};
+      SweepPoint p{series, frequency, nan, nan, false, nan, text, 0, 0, 0.0, nan, 0, 0, 0, 0, 1};
+      p.max_outlet_opening_m = p.max_inlet_opening_m = p.goodman_factor = p.max_root_stress_Pa = nan;
+      p.max_seat_impact_m_per_s = p.max_stop_impact_m_per_s = p.max_cavity_volume_m3 = p.min_absolute_pressure_Pa = nan;
+      return p;
     }
 
     std::string key(const std::string &series, double f)
@@ -134,13 +175,15 @@ namespace rectify::system
       return series + "@" + buf;
     }
 
-    std::string state_csv_header() { return "key,outlet_closed,inlet_closed,state"; }
+    std::string state_csv_header() { return "key,outlet_contact,inlet_contact,state"; }
 
     /// One end state as a CSV row: the point's key, the valves' discrete
     /// states and the continuous state, separated by spaces (exact round trip).
     std::string to_state_row(const std::string &point_key, const StartState &s)
     {
-      std::string row = point_key + "," + (s.closed[0] ? "1" : "0") + "," + (s.closed[1] ? "1" : "0") + ",";
+      // each valve: 1 on its seat, 2 held at its stop, 0 free
+      const auto  mode = [&](std::size_t v) { return s.closed[v] ? "1" : s.at_stop[v] ? "2" : "0"; };
+      std::string row  = point_key + "," + mode(0) + "," + mode(1) + ",";
       char        buf[32];
       for (std::size_t i = 0; i < s.y.size(); ++i)
         {
@@ -157,11 +200,15 @@ namespace rectify::system
       std::string              c;
       while (std::getline(in, c, ','))
         cell.push_back(c);
-      if (cell.size() != 4 || (cell[1] != "0" && cell[1] != "1") || (cell[2] != "0" && cell[2] != "1"))
+      const auto mode = [](const std::string &c) { return c == "0" || c == "1" || c == "2"; };
+      if (cell.size() != 4 || !mode(cell[1]) || !mode(cell[2]))
         return false;
-      point_key   = cell[0];
-      s.closed[0] = cell[1] == "1";
-      s.closed[1] = cell[2] == "1";
+      point_key = cell[0];
+      for (std::size_t v = 0; v < 2; ++v)
+        {
+          s.closed[v]  = cell[1 + v] == "1";
+          s.at_stop[v] = cell[1 + v] == "2";
+        }
       s.y.clear();
       std::istringstream values(cell[3]);
       std::string        v;
@@ -406,6 +453,7 @@ namespace rectify::system
                     r.stats.jacobian_evaluations,
                     r.stats.events,
                     r.warnings.size()};
+      pt.set_validity(r);
       // The state first: a point whose row is written always has its state.
       if (states)
         states->append(to_state_row(key(series.name, frequency), r.end_state));

@@ -54,6 +54,19 @@ namespace rectify::system
     double      wall_time_s, volume_balance_rel_error;
     long        steps, rhs_evaluations, jacobian_evaluations, events;
     std::size_t warnings;
+    /// The run's validity (system/validity.h) and what decides it, over
+    /// both valves and every volume: the valid flag and the seven flags,
+    /// then the numbers behind them (NaN for a failed run).
+    bool   valid = false, beyond_map = false, beyond_stop = false, below_cavitation_pressure = false,
+           goodman_below_1 = false, at_stop = false, cavitating = false, large_deflection = false;
+    double max_outlet_opening_m = 0, max_inlet_opening_m = 0;
+    double goodman_factor = 0;      ///< the worse valve's (infinity: no stress)
+    double max_root_stress_Pa = 0;  ///< the larger of the two reeds' peak root stress
+    double max_seat_impact_m_per_s = 0, max_stop_impact_m_per_s = 0;
+    double max_cavity_volume_m3 = 0;     ///< the largest volume's cavity
+    double min_absolute_pressure_Pa = 0; ///< the lowest pressure of any volume
+    /// Fills the validity columns from a run.
+    void set_validity(const RunResult &r);
   };
 
   /// The CSV header and one row of a SweepPoint: the checkpoint file

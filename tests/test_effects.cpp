@@ -500,7 +500,8 @@ TEST(Effects, ASeatedTwoModeReedIsHeldAtItsTipAndRingsAsThePinnedReed)
   y[state::outlet_reed2_x] = 0.0;
   y[state::outlet_reed_v]  = v1;
   y[state::outlet_reed2_v] = v2;
-  const std::vector<int> found{-1, 0};
+  std::vector<int> found(m.n_roots(), 0); // the outlet valve's contact root (Model::n_roots)
+  found[0] = -1;
   EXPECT_TRUE(m.handle_events(0.0, y, found));
   EXPECT_TRUE(m.closed(0));
   EXPECT_NEAR(y[state::outlet_reed_v] + y[state::outlet_reed2_v], 0.0, 1e-15);
@@ -511,7 +512,7 @@ TEST(Effects, ASeatedTwoModeReedIsHeldAtItsTipAndRingsAsThePinnedReed)
 
   // An opening force lifts it: the root is the force the seat would have to pull with.
   y[state::chamber_p] = 2e5;
-  std::vector<double> g(2);
+  std::vector<double> g(m.n_roots());
   m.roots(0.0, y, g);
   const Flows fo = m.flows(y);
   EXPECT_NEAR(g[0], reed_lift_force + m.seat_reaction(fo.outlet_force, y[state::outlet_reed_x], y[state::outlet_reed_v],
