@@ -30,6 +30,9 @@ namespace rectify::app
                                    {"openings [m]", format_number(ss.from_m) + " .. " + format_number(ss.to_m) +
                                                       ", " + std::to_string(ss.initial_openings) +
                                                       " to start, then midpoints"},
+                                   {"stop", ss.short_of_stop().empty() ? "the openings reach it, " +
+                                                                           format_number(ss.stop_lift_m) + " m"
+                                                                     : ss.short_of_stop()},
                                    {"interpolation tolerance", format_number(ss.tolerance)},
                                    {"processes", std::to_string(mpi.size())},
                                    {"output", o.out_dir}});

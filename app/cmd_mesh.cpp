@@ -27,7 +27,7 @@ namespace rectify::app
                       const std::filesystem::path &out)
     {
       const auto   segments = mesher::section(mesh, 1.234567e-3 * p.geometry.reed_width_m);
-      const double slab_top = opening + p.geometry.reed_thickness_m + p.settings.slab_margin_m;
+      const double slab_top = opening + p.geometry.reed_thickness_m + p.slab_margin_at(opening);
       const auto   write = [&](const std::string &name, double x_max, double z_min, double z_max) {
         // Blocks separated by blank lines, each one segment; its first point is
         // written twice (the plot skips the first row of a block: the header).

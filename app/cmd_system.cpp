@@ -35,6 +35,7 @@ namespace rectify::app
       std::string fluid_loading;
       double      seat_film_m = std::nan("");
       std::string film_suction_limit;
+      bool        thesis_model = false;
 
       void add_to(CLI::App &cmd)
       {
@@ -66,6 +67,9 @@ namespace rectify::app
                        "with the map's fluid loading: cavitation (the film's suction on a lifting reed stops at "
                        "[reed] film_cavitation_pressure_Pa) or none; default: case [reed] film_suction_limit")
           ->check(CLI::IsMember({"cavitation", "none"}));
+        cmd.add_flag("--thesis-model", thesis_model,
+                     "the thesis's model: no stop and no cavitation ([reed] stop = \"off\", [fluid] cavitation = "
+                     "\"none\"); its numbers to the bit, states the hardware cannot reach included");
       }
 
       /// Parameters with the command-line overrides applied.
@@ -77,6 +81,8 @@ namespace rectify::app
         if (!map_set.empty())
           system::use_map_set(p, file, map_set);
         system::use_seat_film(p, seat_film_m, film_suction_limit);
+        if (thesis_model)
+          system::use_thesis_model(p);
         if (!std::isnan(current_pp_A))
           p.drive.current_pp_A = current_pp_A;
         if (!std::isnan(current_bias_A))

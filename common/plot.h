@@ -37,7 +37,7 @@ namespace rectify
       double      y;
       std::string title;
     };
-    std::vector<Level> levels;
+    std::vector<Level> levels = {};
   };
 
   /// Writes `<base>.gp` and renders `<base>.png` and `<base>.svg` (panels

@@ -259,6 +259,11 @@ namespace rectify::design
         {"closed_R_Pa_s_per_m3", 1e17},
         {"n_processes", n_processes}}},
       {"reed_modes", modes},
+      {"reach", {{"stop_lift_m", ss.stop_lift_m},
+                 {"last_opening_m", ss.to_m},
+                 {"short_of_stop_m", std::max(0.0, ss.stop_lift_m - ss.to_m)},
+                 {"why", ss.short_of_stop().empty() ? std::string("the openings reach the reed's stop")
+                                                    : ss.short_of_stop()}}},
       {"points", points},
       {"interpolation_error",
        {{"tolerance", ss.tolerance},
@@ -381,7 +386,8 @@ namespace rectify::design
        << "## R(x) and A_eff(x)\n\n"
        << "Openings chosen by accuracy: " << ss.initial_openings << " log-spaced from "
        << format_number(ss.from_m * 1e6) << " to " << format_number(ss.to_m * 1e6)
-       << " um, then geometric midpoints wherever the map's interpolant (log R and A_eff, monotone cubic in log x) "
+       << " um (" << (ss.short_of_stop().empty() ? std::string("the reed's stop") : ss.short_of_stop())
+       << "), then geometric midpoints wherever the map's interpolant (log R and A_eff, monotone cubic in log x) "
           "missed the solved midpoint by more than "
        << format_number(ss.tolerance * 100) << " %. " << pts.size() << " openings solved ("
        << sweep.n_resumed << " from a checkpoint); interpolation error achieved: R "

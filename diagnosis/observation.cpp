@@ -437,6 +437,7 @@ namespace rectify::diagnosis
     ro.samples_per_cycle         = 200;
     const auto y0 = from ? state_from_record(model, *from, drive.value(t_start), p.transducer.rod_length_m) :
                            model.initial_state();
+    model.sync_cavitation(y0);
     auto       io = integrator_options(model, ro);
     io.quiet      = true; // a fit explores parameters where the model may fail: it says so itself
     Integrator integrator(model, t_start, y0, io);
@@ -454,7 +455,9 @@ namespace rectify::diagnosis
         const auto  y = integrator.state();
         const Flows f = model.flows(y);
         out["outlet_pressure_Pa"].push_back(p_bias + f.p_outlet);
-        out["chamber_pressure_Pa"].push_back(p_bias + y[state::chamber_p]);
+        const double p_ch = model.cavity_nodes().empty() ? y[state::chamber_p] : // a cavity holds its pressure
+                              std::max(y[state::chamber_p], model.cavitation_gauge_pressure());
+        out["chamber_pressure_Pa"].push_back(p_bias + p_ch);
         out["outlet_valve_m"].push_back(model.opening(0, y));
         out["strain"].push_back(y[state::piston_x] / rod);
         if (loaded)

@@ -50,13 +50,19 @@ namespace rectify::mesher
                        " m would push the reed through the pocket ceiling: its tip's top at " +
                        format_number(opening + g.reed_thickness_m) +
                        " m, [geometry] pocket_height_m = " + format_number(g.pocket_height_m));
-    if (opening + g.reed_thickness_m + 2 * s.slab_margin_m > g.pocket_height_m)
+    if (opening > parameters.max_opening_m())
       throw InputError("tip opening = " + format_number(opening) + " m leaves " +
                        format_number(g.pocket_height_m - opening - g.reed_thickness_m) +
-                       " m above the reed's tip; the mesher needs 2 x [mesh] slab_margin_m = " +
-                       format_number(2 * s.slab_margin_m) + " m there (lower slab_margin_m)");
+                       " m above the reed's tip; the mesher needs 2 x [mesh] min_slab_margin_m = " +
+                       format_number(2 * s.min_slab_margin_m) + " m there: it reaches " +
+                       format_number(parameters.max_opening_m()) + " m (lower min_slab_margin_m)");
 
-    const Layout lay(parameters, opening);
+    // Near the ceiling the slab's margin above the reed shrinks to half the
+    // room left, so that TetGen's pocket keeps as much.
+    MeshParameters local = parameters;
+    local.settings.slab_margin_m = parameters.slab_margin_at(opening);
+    info.slab_margin_m           = local.settings.slab_margin_m;
+    const Layout lay(local, opening);
     if (lay.h_cut >= 0.9 * lay.t)
       throw InputError("[mesh] gap_cutoff_ratio = " + format_number(s.gap_cutoff_ratio) +
                        ": at tip opening " + format_number(opening) + " m the cut-off gap (" +
@@ -232,6 +238,7 @@ namespace rectify::mesher
       {"exact_fluid_volume_m3", i.exact_fluid_volume_m3},
       {"volume_rel_error", (i.fluid_volume_m3 - i.exact_fluid_volume_m3) / i.exact_fluid_volume_m3},
       {"gap_layers", i.gap_layers},
+      {"slab_margin_m", i.slab_margin_m},
       {"gap", {{"volume_m3", i.gap_volume_m3},
                {"exact_volume_m3", i.exact_gap_volume_m3},
                {"thinnest_open_gap_m", i.cutoff_thickness_m},

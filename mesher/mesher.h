@@ -45,6 +45,7 @@ namespace rectify::mesher
     /// The gap under the reed is treated as closed from the clamp line to
     /// x = closed_to_m, where it is thinner than cutoff_thickness_m.
     double closed_to_m = 0, cutoff_thickness_m = 0; ///< the latter is also the thinnest open gap
+    double slab_margin_m = 0; ///< the slab's margin above the reed's top at this opening
     double shape_sampling_error = 0; ///< max |phi - sampled phi|
     long   gap_layers = 0;
     std::size_t port_segments = 0, n_stations = 0, n_floor_triangles = 0;

@@ -27,6 +27,7 @@ namespace rectify::mesher
     s.reed_layers      = f.integer(t, "reed_layers", s.reed_layers, 1, 64);
     s.above_layers     = f.integer(t, "above_layers", s.above_layers, 1, 64);
     s.slab_margin_m    = f.real(t, "slab_margin_m", s.slab_margin_m, pos);
+    s.min_slab_margin_m = f.real(t, "min_slab_margin_m", s.min_slab_margin_m, pos);
     s.blend_distance_m = f.real(t, "blend_distance_m", s.blend_distance_m, pos);
     s.port_layer_m     = f.real(t, "port_layer_m", s.port_layer_m, pos);
     s.gap_cutoff_ratio = f.real(t, "gap_cutoff_ratio", s.gap_cutoff_ratio, Bounds::open(0.0, 0.5));
@@ -58,6 +59,9 @@ namespace rectify::mesher
         throw InputError(file.where("mesh", "size_reed_m") + " = " + format_number(s.size_reed_m) +
                          ": coarser than " + feature.what + " (" + format_number(feature.size_m) +
                          " m), which the mesh could not resolve; make size_reed_m at most that, or the feature larger");
+    if (s.min_slab_margin_m > s.slab_margin_m)
+      throw InputError(file.where("mesh", "min_slab_margin_m") + " = " + format_number(s.min_slab_margin_m) +
+                       ": above slab_margin_m = " + format_number(s.slab_margin_m));
     if (2 * s.slab_margin_m + g.reed_thickness_m >= g.pocket_height_m)
       throw InputError(file.where("mesh", "slab_margin_m") + " = " + format_number(s.slab_margin_m) +
                        ": the slab (reed thickness + 2 margins) does not fit under the pocket"
@@ -65,6 +69,17 @@ namespace rectify::mesher
     if (s.shape == "table")
       (void)p.reed_shape(); // check the table now, before any meshing
     return p;
+  }
+
+  double MeshParameters::slab_margin_at(double opening_m) const
+  {
+    const double room = geometry.pocket_height_m - geometry.reed_thickness_m - opening_m;
+    return std::min(settings.slab_margin_m, 0.5 * room);
+  }
+
+  double MeshParameters::max_opening_m() const
+  {
+    return geometry.pocket_height_m - geometry.reed_thickness_m - 2.0 * settings.min_slab_margin_m;
   }
 
   ReedShape MeshParameters::reed_shape() const
@@ -164,6 +179,7 @@ namespace rectify::mesher
             {"reed_layers", reed_layers},
             {"above_layers", above_layers},
             {"slab_margin_m", slab_margin_m},
+            {"min_slab_margin_m", min_slab_margin_m},
             {"blend_distance_m", blend_distance_m},
             {"port_layer_m", port_layer_m},
             {"gap_cutoff_ratio", gap_cutoff_ratio},

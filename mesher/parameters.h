@@ -28,6 +28,10 @@ namespace rectify::mesher
     long   reed_layers      = 1;       ///< layers beside the reed's thickness
     long   above_layers     = 1;       ///< layers between the reed's top and the slab's top
     double slab_margin_m    = 0.15e-3; ///< slab top above the reed's top
+    /// Near the ceiling the slab's margin shrinks to half the room above the
+    /// reed's tip, down to this: the mesher's reach is the opening where the
+    /// room is twice it.
+    double min_slab_margin_m = 10e-6;
     double blend_distance_m = 1.0e-3;  ///< layers relax to uniform over this distance from the reed
     double port_layer_m     = 0.6e-3;  ///< layer thickness in the port
     double gap_cutoff_ratio = 0.05;    ///< gap thinner than this times the opening: closed
@@ -52,6 +56,14 @@ namespace rectify::mesher
     /// The shape as the mesh holds it: sampled on stations at most
     /// station_spacing_m apart, none grazing the port's edge.
     SampledShape sampled_shape() const;
+    /// The slab's margin above the reed's top at a tip opening: slab_margin_m,
+    /// or half the room left between the reed's tip and the ceiling where
+    /// that is less (never below min_slab_margin_m at openings up to
+    /// max_opening_m()).
+    double slab_margin_at(double opening_m) const;
+    /// The largest tip opening the mesher reaches: the pocket's height less
+    /// the reed's thickness and 2 x min_slab_margin_m.
+    double max_opening_m() const;
   };
 
   /// The seat film's modal area: the integral of the reed's shape phi (1 at

@@ -43,10 +43,10 @@ def stored(run):
 
 def velocity(run):
     t = table(run / 'loaded/velocity/sweep.csv')
-    cols = list(t)
+    cols = [c for c in t if c.endswith('_mean_velocity_m_per_s') and '_not_valid_' not in c]
     f = t['frequency_Hz']
     out = {}
-    for name in cols[1:]:
+    for name in cols:
         v = t[name]
         v = [-math.inf if math.isnan(x) else x for x in v]  # NaN: a failed run
         i = max(range(len(v)), key=lambda k: v[k])
@@ -55,6 +55,49 @@ def velocity(run):
         j = max(below, key=lambda k: v[k])
         out[name] = (v[i], f[i], first_rev, v[j], f[j])
     return out
+
+
+def validity(run):
+    """Per series of the loaded velocity sweep: runs, runs not valid and why,
+    the worst Goodman factor, and the first reversal and peak from the valid
+    runs alone (sweep-runs.csv; an older sweep without the columns: None)."""
+    with open(run / 'loaded/velocity/sweep-runs.csv') as f:
+        rows = list(csv.DictReader(f))
+    if not rows or 'valid' not in rows[0]:
+        return None
+    out = {}
+    for r in sorted(rows, key=lambda r: float(r['frequency_Hz'])):
+        s = out.setdefault(r['series'], {'n': 0, 'not_valid': 0, 'goodman': math.inf, 'valid': [],
+                                         'flags': {k: 0 for k in ('beyond_map', 'beyond_stop', 'below_cavitation_pressure',
+                                                                  'goodman_below_1', 'at_stop', 'cavitating')}})
+        if r['regime'].startswith('failed'):
+            continue
+        s['n'] += 1
+        s['not_valid'] += r['valid'] != '1'
+        for k in s['flags']:
+            s['flags'][k] += r[k] == '1'
+        s['goodman'] = min(s['goodman'], float(r['goodman_factor']))
+        if r['valid'] == '1':
+            s['valid'].append((float(r['frequency_Hz']), float(r['mean_velocity_m_per_s'])))
+    for s in out.values():
+        pts = s['valid']
+        rev = next((pts[k][0] for k in range(1, len(pts)) if pts[k][0] > 100 and pts[k][1] < 0 < pts[k - 1][1]),
+                   float('nan'))
+        below = [p for p in pts if not p[0] >= rev]
+        s['peak'] = max(below, key=lambda p: p[1]) if below else (float('nan'), float('nan'))
+        s['reversal'] = rev
+    return out
+
+
+def trace1420(run):
+    """The loaded 1420 Hz run's state (its summary.json 'run' block)."""
+    import json
+    with open(run / 'loaded/trace-1420Hz/summary.json') as f:
+        r = json.load(f)['run']
+    valid = r.get('validity', {}).get('valid')
+    goodman = min((v.get('goodman_factor') or math.inf for v in r.get('valves', {}).values()), default=math.nan)
+    return (r['max_outlet_reed_opening_m'], r['max_inlet_reed_opening_m'], r['min_absolute_chamber_pressure_Pa'],
+            r['samples_beyond_map'], valid, goodman, r.get('stop_impacts', 0))
 
 
 def phase(run):
@@ -90,7 +133,8 @@ def main():
         variants.append((label, Path(d)))
     def results(d):
         out = {}
-        for key, fn in (('traces', traces), ('stored', stored), ('velocity', velocity), ('phase', phase)):
+        for key, fn in (('traces', traces), ('stored', stored), ('velocity', velocity), ('phase', phase),
+                        ('validity', validity), ('trace1420', trace1420)):
             try:
                 out[key] = fn(d)
             except (OSError, KeyError, ValueError):
@@ -104,7 +148,7 @@ def main():
     def cell(fn, r):
         try:
             return fn(r)
-        except TypeError:
+        except (TypeError, KeyError):
             return 'n/a'
 
     row = lambda label, fn: print(f'| {label} | ' + ' | '.join(cell(fn, res[n]) for n in names) + ' |')
@@ -121,6 +165,23 @@ def main():
             lambda r: '{:.3f} at {:.0f}'.format(*r['velocity'][key(r)][:2]))
         row(f'{series}: first reversal above 100 Hz [Hz]', lambda r: f'{r["velocity"][key(r)][2]:.0f}')
     row('outlet reed lag behind the piston flow at 1420 Hz [cycle]', lambda r: f'{r["phase"]:.2f}')
+    row('1420 Hz: max outlet / inlet reed opening [mm]',
+        lambda r: '{:.2f} / {:.2f}'.format(r['trace1420'][0] * 1e3, r['trace1420'][1] * 1e3))
+    row('1420 Hz: min absolute chamber pressure [MPa]', lambda r: f'{r["trace1420"][2] * 1e-6:.2f}')
+    row('1420 Hz: samples beyond the map; stop impacts', lambda r: f'{r["trace1420"][3]}; {r["trace1420"][6]}')
+    row('1420 Hz: valid; worst Goodman factor', lambda r: '{}; {:.2f}'.format(
+        'yes' if r['trace1420'][4] else 'no', r['trace1420'][5]))
+    for series in ('dynamic', 'reed-whatif'):
+        v = lambda r: r['validity'][series]
+        row(f'{series}: runs not valid of the sweep', lambda r: f'{v(r)["not_valid"]} of {v(r)["n"]}')
+        row(f'{series}: ... beyond map / through stop / below cavitation / Goodman < 1',
+            lambda r: ' / '.join(str(v(r)['flags'][k]) for k in ('beyond_map', 'beyond_stop',
+                                                                 'below_cavitation_pressure', 'goodman_below_1')))
+        row(f'{series}: runs at the stop / cavitating', lambda r: '{} / {}'.format(v(r)['flags']['at_stop'],
+                                                                                  v(r)['flags']['cavitating']))
+        row(f'{series}: worst Goodman factor', lambda r: f'{v(r)["goodman"]:.2f}')
+        row(f'{series}: valid runs only: first reversal [Hz]; peak [m/s] at [Hz]',
+            lambda r: '{:.0f}; {:.3f} at {:.0f}'.format(v(r)['reversal'], v(r)['peak'][1], v(r)['peak'][0]))
 
 
 if __name__ == '__main__':

@@ -16,6 +16,10 @@
 #                                  (its suction limited by cavitation), added mass, displaced flow
 #                                  (docs/fluid-loading.md)
 #   fe-loading-film20um/...        the same with a 20 um residual film on the seat
+#   thesis-model/...               the chapter-5 runs on the thesis's R(x) with the thesis's own model:
+#                                  no stop, no cavitation (--thesis-model), for the comparison
+# Every run above has the reed's stop and the oil's cavitation (docs/system-model.md) and says
+# whether its state is one the hardware can reach (validity, docs/stress.md).
 #   (scripts/film_study.sh runs the other film variants of docs/fluid-loading.md)
 # Interrupted? Run it again: finished sweep points are kept and not redone.
 set -euo pipefail
@@ -72,6 +76,15 @@ loading_set() {
 }
 loading_set $out/fe-loading
 loading_set $out/fe-loading-film20um --seat-film-m 2e-5
+# The thesis's model as it was: no stop, no cavitation.
+th=$out/thesis-model
+for f in 5 10 25 50; do
+  $rectify simulate --thesis-model --scenario no-flow --frequency $f --cycles 5 --out $th/no-flow/trace-${f}Hz
+done
+$rectify sweep --thesis-model --scenario no-flow --current-pp 4 --current-bias 2 --from 1 --to 1200 --n 40 \
+  --spacing log --out $th/no-flow/stored-pressure
+$rectify sweep --thesis-model --scenario loaded --from 10 --to 3500 --n 100 --spacing linear --out $th/loaded/velocity
+$rectify simulate --thesis-model --scenario loaded --frequency 1420 --cycles 300 --out $th/loaded/trace-1420Hz
 python3 scripts/chapter5_numbers.py $out "FE maps + loading, 20 um seat film=$out/fe-loading-film20um" \
-  > $out/chapter5-numbers.md
+  "thesis's model (no stop, no cavitation)=$th" > $out/chapter5-numbers.md
 echo "reference case done: see $out/*/*/summary.json and the PNG plots beside them"

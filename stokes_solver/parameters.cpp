@@ -1,6 +1,11 @@
 #include "stokes_solver/parameters.h"
 #include "stokes_solver/resistance_sweep.h"
 
+#include <algorithm>
+#include <cstdio>
+
+#include "mesher/parameters.h"
+
 namespace rectify::stokes
 {
   FlowSettings FlowSettings::from_case(const CaseFile &f)
@@ -44,23 +49,53 @@ namespace rectify::stokes
     SweepSettings     s;
     const std::string t = "design";
     s.from_m            = f.real(t, "openings_from_m", s.from_m, Bounds::positive());
-    s.to_m              = f.real(t, "openings_to_m", s.to_m, Bounds::positive());
     s.initial_openings  = static_cast<unsigned>(f.integer(t, "initial_openings", s.initial_openings, 3, 200));
     s.tolerance         = f.real(t, "tolerance", s.tolerance, Bounds::open(0.0, 1.0));
     s.min_ratio         = f.real(t, "min_ratio", s.min_ratio, Bounds{1.0, 10.0, false, true});
     s.max_openings      = static_cast<unsigned>(f.integer(t, "max_openings", s.max_openings, 3, 1000));
+    const auto g     = ValveGeometry::from_case(f);
+    s.stop_lift_m    = g.stop_lift_m();
+    s.mesher_reach_m = mesher::MeshParameters::from_case(f).max_opening_m();
+    s.to_stop        = !f.has(t, "openings_to_m");
+    s.to_m = s.to_stop ? std::min(s.stop_lift_m, s.mesher_reach_m) : f.real(t, "openings_to_m", s.to_m, Bounds::positive());
     if (!(s.to_m > s.from_m))
-      throw InputError(f.where(t, "openings_to_m") + " = " + format_number(s.to_m) +
-                       ": must exceed openings_from_m = " + format_number(s.from_m));
-    const auto g = ValveGeometry::from_case(f);
+      throw InputError(f.where(t, s.to_stop ? "openings_from_m" : "openings_to_m") + " = " +
+                       format_number(s.to_stop ? s.from_m : s.to_m) + ": the openings run from openings_from_m = " +
+                       format_number(s.from_m) + " to " + format_number(s.to_m) +
+                       (s.to_stop ? " m (the stop or the mesher's reach)" : " m") + ", which must be larger");
     if (s.to_m >= g.pocket_height_m - g.reed_thickness_m)
       throw InputError(f.where(t, "openings_to_m") + " = " + format_number(s.to_m) +
                        ": the reed's top would reach the pocket's ceiling ([geometry] pocket_height_m = " +
                        format_number(g.pocket_height_m) + ")");
+    if (s.to_m > s.stop_lift_m * (1 + 1e-12))
+      throw InputError(f.where(t, "openings_to_m") + " = " + format_number(s.to_m) +
+                       ": beyond the reed's stop, which it cannot pass (lift " + format_number(s.stop_lift_m) +
+                       " m: [geometry] stop_height_m less the reed's thickness)");
+    if (s.to_m > s.mesher_reach_m)
+      throw InputError(f.where(t, "openings_to_m") + " = " + format_number(s.to_m) +
+                       ": beyond the mesher's reach, " + format_number(s.mesher_reach_m) +
+                       " m (the pocket's height less the reed's thickness and 2 x [mesh] min_slab_margin_m)");
     if (s.max_openings < s.initial_openings)
       throw InputError(f.where(t, "max_openings") + " = " + std::to_string(s.max_openings) +
                        ": below initial_openings = " + std::to_string(s.initial_openings));
     return s;
+  }
+
+  std::string SweepSettings::short_of_stop() const
+  {
+    if (to_m >= stop_lift_m * (1 - 1e-12))
+      return "";
+    const auto um = [](double x) {
+      char buf[32];
+      std::snprintf(buf, sizeof(buf), "%.4g um", x * 1e6);
+      return std::string(buf);
+    };
+    std::string why = "the openings end at " + um(to_m) + ", " + um(stop_lift_m - to_m) +
+                      " short of the reed's stop at " + um(stop_lift_m) + ": ";
+    if (!to_stop)
+      return why + "[design] openings_to_m says so";
+    return why + "the mesher needs 2 x [mesh] min_slab_margin_m between the reed's tip and the pocket's ceiling"
+                 " (a smaller min_slab_margin_m reaches further, with thinner cells there)";
   }
 
   nlohmann::json SweepSettings::to_json() const

@@ -28,6 +28,13 @@ namespace rectify::stokes
     double   tolerance         = 5e-3;     ///< interpolation error allowed in R and A_eff (relative)
     double   min_ratio         = 1.05;     ///< no interval is split below this opening ratio
     unsigned max_openings      = 60;       ///< stop refining beyond this many solves
+    /// Where the openings end when openings_to_m is not given: the reed's
+    /// stop, or short of it by what the mesher cannot reach.
+    double   stop_lift_m       = 0;        ///< [geometry]'s stop: the largest opening the reed reaches
+    double   mesher_reach_m    = 0;        ///< the largest opening the mesher meshes
+    bool     to_stop           = false;    ///< openings_to_m was not given: to the stop (or the mesher's reach)
+    /// Why the openings end short of the stop (empty when they reach it).
+    std::string short_of_stop() const;
     static SweepSettings from_case(const CaseFile &file); ///< case table [design]
     nlohmann::json to_json() const;
   };

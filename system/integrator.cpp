@@ -276,6 +276,7 @@ namespace rectify::system
     void           *cvode   = nullptr;
     IntegratorStats finished; // counters of the segments before the last reinit
     long            events = 0, reinits = 0;
+    long            max_steps = 0; ///< per output interval and segment between events (CVODE's mxstep)
 
     explicit Impl(OdeSystem &s)
       : system(s)
@@ -394,6 +395,7 @@ namespace rectify::system
         check(CVodeSetLinSysFn(m.cvode, linear_system_callback), "CVodeSetLinSysFn");
       }
     check(CVodeSetMaxNumSteps(m.cvode, options.max_steps_between_outputs), "CVodeSetMaxNumSteps");
+    m.max_steps = options.max_steps_between_outputs;
     if (options.max_order > 0)
       check(CVodeSetMaxOrd(m.cvode, options.max_order), "CVodeSetMaxOrd");
     if (system.n_roots() > 0)
@@ -438,12 +440,18 @@ namespace rectify::system
   {
     Impl            &m = *impl_;
     std::vector<int> found(m.system.n_roots());
+    // CVODE's step limit holds per call; a root that changes nothing ends a
+    // call without ending the segment, so the limit is kept here across them
+    long segment_start = m.current().steps;
     while (t_ < t_out)
       {
         sunrealtype t    = t_;
         const int   flag = CVode(m.cvode, t_out, m.y, &t, CV_NORMAL);
         check(flag, "CVode");
         t_ = t;
+        if (m.current().steps - segment_start > m.max_steps)
+          throw std::runtime_error("CVODE: CVode failed: CV_TOO_MUCH_WORK (more than " + std::to_string(m.max_steps) +
+                                   " steps toward the next output time)");
         if (flag != CV_ROOT_RETURN)
           continue;
         check(CVodeGetRootInfo(m.cvode, found.data()), "CVodeGetRootInfo");
@@ -452,6 +460,7 @@ namespace rectify::system
           { // an event; a root that changes nothing (one the system only logs) is not one
             ++m.events;
             m.restart(t_);
+            segment_start = m.current().steps;
           }
       }
   }

@@ -175,6 +175,7 @@ namespace rectify::system
                          parameters.reed.stress_source};
     stress1_          = parameters.reed.root_stress_per_opening_Pa_per_m;
     stress2_          = parameters.reed.second_mode_root_stress_per_opening_Pa_per_m;
+    stress_extrema_   = parameters.reed.stop == "on" || parameters.fluid.cavitates();
     if (parameters.fluid.cavitates())
       {
         p_cavitation_ = parameters.fluid.cavitation_pressure_Pa - c_.p_bias;
@@ -369,13 +370,13 @@ namespace rectify::system
     return stress1_ * y[ix] + stress2_ * y[ix2];
   }
 
-  double Model::stress_rate(std::size_t v, std::span<const double> y) const
+  double Model::root_stress_rate(std::size_t v, std::span<const double> y) const
   {
     const std::size_t ix = v == 0 ? state::outlet_reed_x : state::inlet_reed_x;
-    if (valves_ == ValveModel::ideal || stress1_ == 0.0)
-      return 1.0;
+    if (valves_ == ValveModel::ideal)
+      return 0.0;
     if (c_.k_r2 == 0.0)
-      return closed_[v] || at_stop_[v] ? 1.0 : stress1_ * y[ix + 1];
+      return closed_[v] || at_stop_[v] ? 0.0 : stress1_ * y[ix + 1];
     const std::size_t ix2 = v == 0 ? state::outlet_reed2_x : state::inlet_reed2_x;
     return stress1_ * y[ix + 1] + stress2_ * y[ix2 + 1];
   }
@@ -1038,7 +1039,8 @@ namespace rectify::system
         g[2 * v + 1] = g[4 + 2 * v] = g[5 + 2 * v] = 1.0;
         if (valves_ == ValveModel::ideal)
           {
-            const double dp = driving_pressure(v, y, f);
+            double dp = 0;
+            with_physical(y, [&](std::span<const double> p) { dp = driving_pressure(v, p, f); });
             // opens when dp rises past +switch_pressure, shuts when it falls past -switch_pressure
             g[2 * v] = closed_[v] ? switch_pressure - dp : dp + switch_pressure;
             continue;
@@ -1052,9 +1054,12 @@ namespace rectify::system
           g[2 * v] = reed_root(closed_[v], closed_[v] ? y[ix] : opening(v, y), closed_[v] && c_.k_r2 > 0 ? -R : F);
         if (!closed_[v] && !at_stop_[v] && stop_lift_ < std::numeric_limits<double>::infinity())
           g[2 * v + 1] = stop_root(false, opening(v, y), stop_lift_, 0.0);
-        const double rate = stress_rate(v, y);
-        g[4 + 2 * v]      = rate;  // falls through 0 at a maximum
-        g[5 + 2 * v]      = -rate; // and at a minimum
+        if (record_events_ && stress_extrema_)
+          if (const double rate = root_stress_rate(v, y); rate != 0.0)
+            {
+              g[4 + 2 * v] = rate;  // falls through 0 at a maximum
+              g[5 + 2 * v] = -rate; // and at a minimum
+            }
       }
     for (std::size_t k = 0; k < cavity_nodes_.size(); ++k)
       g[8 + k] = cavity_root(cavitating_[k] != 0, y[cavity_nodes_[k]], p_cavitation_);

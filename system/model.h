@@ -208,7 +208,13 @@ namespace rectify::system
     std::vector<std::vector<std::size_t>> rhs_reads() const override;
     /// Per valve v: 2v its seat or held contact, 2v + 1 its stop, 4 + 2v and
     /// 5 + 2v its root stress's maximum and minimum (logged, nothing
-    /// changes); 8 + k the cavitation of volume k (cavity_node(k)).
+    /// changes); 8 + k the cavitation of volume k (cavity_nodes()[k]).
+    /// A root function that never crosses zero changes nothing CVODE does;
+    /// one that does changes how the others' roots are bracketed, and so the
+    /// trajectory in its last bits. The stress's extrema are therefore roots
+    /// only while a run records events (system::run) and not in the
+    /// thesis's model (no stop, no cavitation), which stays the thesis's to
+    /// the bit; there, and in the diagnosis's runs, they are never found.
     std::size_t n_roots() const override { return 8 + cavity_nodes_.size(); }
     void        roots(double t, std::span<const double> y, std::span<double> g) const override;
     bool handle_events(double t, std::span<double> y, std::span<const int> found) override;
@@ -303,6 +309,8 @@ namespace rectify::system
     /// per unit opening of each mode ([reed] root_stress_...) times its
     /// modal coordinate; positive: the underside in tension.
     double root_stress(std::size_t v, std::span<const double> y) const;
+    /// Its rate of change at state y [Pa/s] (0 where the reed is held).
+    double root_stress_rate(std::size_t v, std::span<const double> y) const;
 
     /// The volumes that can cavitate: their pressure states (chamber, high
     /// side, low side, the outlet line's nodes), none without cavitation.
@@ -343,8 +351,7 @@ namespace rectify::system
     /// The same with two modes: the contact holds the tip, not the reed.
     void two_mode_contact_event(std::size_t v, double t, std::span<double> y, bool stop_root);
     void log_event(double t, std::size_t v, ReedEvent::Kind kind, double velocity, std::span<const double> y);
-    /// The root stress's rate of valve v (its extrema's root function; 1 where the reed is held).
-    double stress_rate(std::size_t v, std::span<const double> y) const;
+
 
     /// R and dR/dx of valve v at state y.
     maps::ResistanceMap::Value valve_resistance(std::size_t v, std::span<const double> y) const;
@@ -364,6 +371,7 @@ namespace rectify::system
     double                stop_restitution_ = 0.0;
     double                stress1_ = 0.0, stress2_ = 0.0; ///< root stress per unit opening of each mode
     bool                  record_events_ = false;
+    bool                  stress_extrema_ = false; ///< the stress's extrema as roots (not the thesis's model)
     std::vector<ReedEvent> events_;
     std::vector<std::size_t> cavity_nodes_;   ///< pressure states that can cavitate
     std::vector<char>        cavitating_;     ///< per cavity node: its cavity is open

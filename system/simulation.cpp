@@ -293,8 +293,8 @@ namespace rectify::system
             const auto events = model.take_events();
             if (measuring)
               {
-                monitor.sample(state);
                 monitor.add(events);
+                monitor.sample(state);
                 x_p_min  = std::min(x_p_min, y[piston_x]);
                 x_p_max  = std::max(x_p_max, y[piston_x]);
                 max_ro   = std::max(max_ro, x_o);

@@ -70,9 +70,11 @@ namespace rectify::system
   {
   public:
     explicit WindowMonitor(const Model &model);
-    /// One sample of the integrator's state y (liquid pressures: the model's states).
-    void sample(std::span<const double> y);
+    /// The reed events since the last sample (impacts, and the stress's
+    /// extrema where the model finds them), then that sample: the
+    /// integrator's state y (liquid pressures: the model's states).
     void add(const std::vector<Model::ReedEvent> &events);
+    void sample(std::span<const double> y);
     /// The window's statistics and flags.
     void finish(std::array<ValveStatistics, 2> &valves, std::vector<VolumeStatistics> &volumes,
                 Validity &validity) const;

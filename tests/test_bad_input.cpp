@@ -112,6 +112,33 @@ TEST(BadInput, CaseKeysThatWereIgnoredOrCrashedTheSolverAreRefused)
   EXPECT_NO_THROW(system::ReedParameters::from_case(ok));
 }
 
+TEST(BadInput, AStopACavitationPressureAndFatigueDataTheHardwareCannotHaveAreRefused)
+{
+  const auto dir = scratch("bad_limits");
+  const auto out = dir / "out";
+  const auto run = [&](const std::string &name, const std::string &text) {
+    write_file_atomic(dir / name, text);
+    return "simulate --case " + (dir / name).string() + " --out " + out.string();
+  };
+  // the stop above the pocket's ceiling, or below the closed reed's top
+  expect_refused(run("s1.toml", "[geometry]\nstop_height_m = 2.5e-3\n"),
+                 {"s1.toml", "[geometry] stop_height_m", "0.0025", "ceiling"}, out);
+  expect_refused(run("s2.toml", "[geometry]\nstop_height_m = 0.1e-3\n"),
+                 {"s2.toml", "[geometry] stop_height_m", "0.0001", "closed reed"}, out);
+  // an endurance limit of zero or above the ultimate strength
+  expect_refused(run("e1.toml", "[reed_material]\nendurance_limit_Pa = 0\n"),
+                 {"e1.toml", "[reed_material] endurance_limit_Pa"}, out);
+  expect_refused(run("e2.toml", "[reed_material]\nendurance_limit_Pa = 600e6\nultimate_strength_Pa = 515e6\n"),
+                 {"e2.toml", "[reed_material] endurance_limit_Pa", "6e+08", "ultimate"}, out);
+  // a cavitation pressure at or above the bias pressure
+  expect_refused(run("c.toml", "[fluid]\ncavitation_pressure_Pa = 3e6\n"),
+                 {"c.toml", "[fluid] cavitation_pressure_Pa", "3e+06", "bias"}, out);
+  expect_refused(run("r.toml", "[reed]\nstop_restitution = 1.0\n"), {"r.toml", "[reed] stop_restitution"}, out);
+  expect_refused(run("o.toml", "[reed]\nstop = \"maybe\"\n"), {"o.toml", "[reed] stop", "maybe"}, out);
+  // the ceiling itself is a stop
+  EXPECT_EQ(rectify_cli(run("ok.toml", "[geometry]\nstop_height_m = 2.0e-3\n") + " --cycles 1").exit_code, 0);
+}
+
 TEST(BadInput, EffectsThatCannotActAndOpeningsTheMeshCannotResolveAreRefused)
 {
   const auto dir = scratch("bad_runs");

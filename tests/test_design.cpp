@@ -10,8 +10,10 @@
 #include <nlohmann/json.hpp>
 #include <random>
 
+#include "common/case_file.h"
 #include "common/io.h"
 #include "maps/map_set.h"
+#include "stokes_solver/resistance_sweep.h"
 #include "tests/cli_helpers.h"
 
 using namespace rectify;
@@ -158,6 +160,24 @@ TEST(Design, MapSetInterpolatesExtraSolvesTwoProcessesAgreeAndItResumes)
   std::filesystem::remove_all(dir);
 }
 
+// Without openings_to_m the openings run to the reed's stop, or as far as
+// the mesher reaches, and say by how much they fall short.
+TEST(Design, TheOpeningsRunToTheStopOrSayWhyAndByHowMuchTheyEndShort)
+{
+  const auto reference = stokes::SweepSettings::from_case(CaseFile::load(reference_case_path()));
+  EXPECT_TRUE(reference.to_stop);
+  EXPECT_NEAR(reference.stop_lift_m, 2.0e-3 - 0.127e-3, 1e-12);
+  EXPECT_NEAR(reference.to_m, 2.0e-3 - 0.127e-3 - 2 * 10e-6, 1e-12); // the mesher's reach
+  const auto why = reference.short_of_stop();
+  EXPECT_NE(why.find("20 um short of the reed's stop"), std::string::npos) << why;
+  EXPECT_NE(why.find("min_slab_margin_m"), std::string::npos) << why;
+
+  const auto guarded = stokes::SweepSettings::from_case(
+    CaseFile::parse("[geometry]\nstop_height_m = 1.5e-3\n", "guard.toml"));
+  EXPECT_NEAR(guarded.to_m, 1.5e-3 - 0.127e-3, 1e-12);
+  EXPECT_EQ(guarded.short_of_stop(), "");
+}
+
 TEST(Design, BadDesignSettingsAreRefusedBeforeAnyWork)
 {
   const auto dir = scratch("design_bad");
@@ -166,6 +186,8 @@ TEST(Design, BadDesignSettingsAreRefusedBeforeAnyWork)
          {"[design]\nopenings_from_m = -1e-6\n", "openings_from_m"},
          {"[design]\nopenings_from_m = 1e-4\nopenings_to_m = 1e-5\n", "openings_to_m"},
          {"[design]\nopenings_to_m = 1.95e-3\n", "ceiling"},
+         {"[design]\nopenings_to_m = 1.86e-3\n", "beyond the mesher's reach"},
+         {"[geometry]\nstop_height_m = 1.5e-3\n[design]\nopenings_to_m = 1.4e-3\n", "beyond the reed's stop"},
          {"[design]\ninitial_openings = 2\n", "initial_openings"},
          {"[design]\ntolerence = 0.01\n", "tolerence"}})
     {

@@ -67,6 +67,38 @@ TEST(Mesher, VolumeEqualsTheAnalyticFluidVolume)
     }
 }
 
+// Up to the stop: near the ceiling the slab's margin shrinks to half the
+// room above the reed's tip; the mesh keeps its exact volume and closed
+// surface there, the slab's top stays under the ceiling by as much again,
+// and one step beyond the reach is refused naming the key.
+TEST(Mesher, ReachesTheStopWithTheSlabsMarginShrunkUnderTheCeiling)
+{
+  const auto   p     = reference();
+  const double reach = p.geometry.pocket_height_m - p.geometry.reed_thickness_m - 2 * p.settings.min_slab_margin_m;
+  EXPECT_NEAR(p.max_opening_m(), reach, 1e-15);
+  EXPECT_NEAR(reach, 1.853e-3, 1e-12); // 2.0 - 0.127 - 2 x 0.010 mm
+  for (double opening : {1.5e-3, 1.8e-3, reach})
+    {
+      const auto  r = mesh_valve(p, opening);
+      const auto &i = r.info;
+      const double room = p.geometry.pocket_height_m - p.geometry.reed_thickness_m - opening;
+      EXPECT_NEAR(i.slab_margin_m, std::min(p.settings.slab_margin_m, room / 2), 1e-15) << opening;
+      EXPECT_GE(i.slab_margin_m, p.settings.min_slab_margin_m * (1 - 1e-9)) << opening;
+      EXPECT_NEAR(i.fluid_volume_m3 / i.exact_fluid_volume_m3, 1.0, 1e-6) << opening;
+      EXPECT_TRUE(i.surface.closed && i.surface.outward && !i.surface.self_intersecting) << opening;
+      EXPECT_GT(i.quality.all.min_dihedral_deg, 0.1) << opening;
+    }
+  try
+    {
+      (void)mesh_valve(p, reach + 2e-6);
+      ADD_FAILURE() << "meshed beyond the reach";
+    }
+  catch (const InputError &e)
+    {
+      EXPECT_NE(std::string(e.what()).find("min_slab_margin_m"), std::string::npos) << e.what();
+    }
+}
+
 // By hand: the reference pocket, port, reed; independent of the mesher's formulas.
 TEST(Mesher, ExactVolumeIsTheReferenceGeometrysVolume)
 {
@@ -320,6 +352,7 @@ TEST(Mesher, BadInputNamesTheKeyBeforeMeshing)
   expect_error("[mesh]\ngap_cutoff_ratio = 0\n", "[mesh] gap_cutoff_ratio");
   expect_error("[mesh]\nshape = \"table\"\n", "shape_table");
   expect_error("[mesh]\nshape = \"parabola\"\n", "[mesh] shape");
+  expect_error("[mesh]\nmin_slab_margin_m = 0.2e-3\n", "[mesh] min_slab_margin_m");
 
   const auto dir = scratch("mesher_bad_table");
   auto table_error = [&](const std::string &csv, const std::string &fragment) {

@@ -217,6 +217,49 @@ TEST(Whatif, AnswersAreReadOffTheSweepsExactly)
   EXPECT_NEAR(b.half_pressure_frequency_Hz, 100, 1e-9);
 }
 
+TEST(Whatif, AnswersComeFromTheValidRunsAndTheDesignsLifeFromEveryRun)
+{
+  // Five runs: valid at 100 and 200 Hz, a reed that would not survive at
+  // 300 Hz (Goodman 0.6, the fastest impact), a failed run at 400 Hz, valid
+  // again at 500 Hz but beyond its map at 600 Hz. The answers see 100, 200
+  // and 500 Hz; the worst Goodman factor and impact every finished run.
+  std::vector<system::SweepPoint> points;
+  const auto point = [&](double f, double v, double goodman, double impact, bool valid, bool failed = false) {
+    system::SweepPoint p{"dynamic", f, 0.0, v, true, 0.0, failed ? "failed: CVODE" : "periodic", 0, 50, 0, 0, 0, 0, 0, 0, 0};
+    p.goodman_factor          = goodman;
+    p.goodman_below_1         = goodman < 1;
+    p.max_seat_impact_m_per_s = impact;
+    p.valid                   = valid;
+    p.beyond_map              = !valid && goodman >= 1;
+    if (failed)
+      p.mean_velocity_m_per_s = std::nan("");
+    points.push_back(p);
+  };
+  point(100, 0.10, 3.0, 0.5, true);
+  point(200, 0.30, 1.5, 1.0, true);
+  point(300, 0.90, 0.6, 4.0, false);
+  point(400, 0.0, 1.0, 0.0, false, true);
+  point(500, -0.20, 1.2, 2.0, true);
+  point(600, 0.50, 1.1, 1.0, false);
+  const auto d = whatif::sweep_verdict(points, true);
+  EXPECT_EQ(d.points, 6u);
+  EXPECT_EQ(d.failed_points, 1u);
+  EXPECT_EQ(d.valid_points, 3u);
+  EXPECT_EQ(d.valid_frequencies_Hz, (std::vector<double>{100, 200, 500}));
+  EXPECT_DOUBLE_EQ(d.worst_goodman_factor, 0.6);
+  EXPECT_DOUBLE_EQ(d.max_impact_velocity_m_per_s, 4.0);
+  EXPECT_DOUBLE_EQ(d.survives_to_Hz, 200);
+  EXPECT_DOUBLE_EQ(d.valid_to_Hz, 200);
+  const auto valid = whatif::velocity_answer(d.valid_frequencies_Hz, d.valid_values);
+  EXPECT_DOUBLE_EQ(valid.peak_velocity_m_per_s, 0.30); // not the 0.90 of the reed that breaks
+  EXPECT_NEAR(valid.first_reversal_Hz, 200 + 300 * 0.3 / 0.5, 1e-12);
+  const auto all = whatif::velocity_answer(d.frequencies_Hz, d.values);
+  EXPECT_DOUBLE_EQ(all.peak_velocity_m_per_s, 0.90);
+  // no run survives: nothing to answer with
+  points.erase(points.begin(), points.begin() + 2);
+  EXPECT_TRUE(std::isnan(whatif::sweep_verdict(points, true).survives_to_Hz));
+}
+
 TEST(Whatif, BadInputIsRefusedBeforeAnyJobRuns)
 {
   const auto dir = scratch("whatif_bad");
@@ -291,7 +334,13 @@ TEST(Whatif, OneAndTwoProcessesAgreeCachedMapSetsAreReusedAndAKilledBatchResumes
   EXPECT_EQ(rows.at("d01").at(col("map_set")), rows.at("d03").at(col("map_set"))); // one map set, shared
   EXPECT_NE(rows.at("d01").at(col("map_set")), rows.at("d02").at(col("map_set")));
   EXPECT_EQ(num("d01", "k_r_N_per_m"), num("d03", "k_r_N_per_m"));
-  EXPECT_GT(num("d01", "peak_velocity_m_per_s"), 0);
+  EXPECT_GT(num("d01", "peak_velocity_all_points_m_per_s"), 0);
+  // Annealed 304 (the case's) does not survive the loaded sweep's cycles at
+  // 200-3400 Hz: no valid run, so no valid answer, and the reason in the table
+  EXPECT_LT(num("d01", "worst_goodman_factor"), 1.0);
+  EXPECT_GT(num("d01", "max_impact_velocity_m_per_s"), 0.0);
+  if (num("d01", "velocity_valid_points") == 0)
+    EXPECT_EQ(rows.at("d01").at(col("peak_velocity_m_per_s")), "");
   EXPECT_TRUE(fs::exists(dir / "one" / "plots" / "whatif-geometry-reed_thickness_m.png"));
   EXPECT_TRUE(fs::exists(dir / "one" / "plots" / "resistance-family.png"));
   EXPECT_TRUE(fs::is_symlink(dir / "one" / "designs" / "d01" / "map-set"));
@@ -404,7 +453,8 @@ TEST(Whatif, AFailingDesignIsReportedAndTheOthersComplete)
   ASSERT_EQ(summary["designs"].size(), 2u);
   const auto &good = summary["designs"][0], &stuck = summary["designs"][1];
   EXPECT_EQ(good["status"], "ok") << good.dump(1);
-  EXPECT_GT(good["peak_velocity_m_per_s"].get<double>(), 0);
+  EXPECT_GT(good["peak_velocity_all_points_m_per_s"].get<double>(), 0);
+  EXPECT_TRUE(good["worst_goodman_factor"].is_number()) << good.dump(1);
   EXPECT_EQ(stuck["status"], "failed");
   const std::string reason = stuck["reason"];
   EXPECT_NE(reason.find("opening:"), std::string::npos) << reason; // the job ...

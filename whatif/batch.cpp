@@ -261,47 +261,50 @@ namespace rectify::whatif
       ensure_directory(dir);
       const auto  r      = system::run_sweep(p, s, dir);
       const char *metric = velocity ? "mean_velocity_m_per_s" : "stored_pressure_Pa";
-      CsvTable    table({"frequency_Hz", metric, "metric_stderr", "settled", "periodic"});
-      std::vector<double> f, v;
-      std::size_t         n_failed = 0;
+      CsvTable    table({"frequency_Hz", metric, "metric_stderr", "settled", "periodic", "valid", "goodman_factor",
+                         "max_seat_impact_m_per_s", "max_stop_impact_m_per_s"});
       for (const auto &pt : r.points)
         {
-          const double value = velocity ? pt.mean_velocity_m_per_s : pt.stored_pressure_Pa;
-          const double row[5] = {pt.frequency_Hz, value, pt.metric_stderr, pt.settled ? 1.0 : 0.0,
-                                 pt.regime == "periodic" ? 1.0 : 0.0};
+          const double row[9] = {pt.frequency_Hz, velocity ? pt.mean_velocity_m_per_s : pt.stored_pressure_Pa,
+                                 pt.metric_stderr, pt.settled ? 1.0 : 0.0, pt.regime == "periodic" ? 1.0 : 0.0,
+                                 pt.valid ? 1.0 : 0.0,
+                                 std::isfinite(pt.goodman_factor) ? pt.goodman_factor : std::nan(""),
+                                 pt.max_seat_impact_m_per_s, pt.max_stop_impact_m_per_s};
           table.add_row(row);
-          if (pt.failed() || !std::isfinite(value))
-            {
-              ++n_failed;
-              continue;
-            }
-          f.push_back(pt.frequency_Hz);
-          v.push_back(value);
         }
       table.write(dir / "sweep.csv");
-      nlohmann::json answer = {{"points", r.points.size()}, {"failed_points", n_failed}, {"range", range.to_json()},
-                               {"cycles", bs.cycles}, {"series", "dynamic"}};
+      const auto     verdict = sweep_verdict(r.points, velocity);
+      const auto     number  = [](double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); };
+      nlohmann::json answer  = {{"points", r.points.size()},
+                                {"failed_points", verdict.failed_points},
+                                {"valid_points", verdict.valid_points},
+                                {"worst_goodman_factor", number(verdict.worst_goodman_factor)},
+                                {"max_impact_velocity_m_per_s", verdict.max_impact_velocity_m_per_s},
+                                {"survives_to_Hz", number(verdict.survives_to_Hz)},
+                                {"valid_to_Hz", number(verdict.valid_to_Hz)},
+                                {"range", range.to_json()},
+                                {"cycles", bs.cycles},
+                                {"series", "dynamic"},
+                                {"current_pp_A", s.current_pp_A},
+                                {"current_bias_A", s.current_bias_A}};
+      const auto &f = verdict.valid_frequencies_Hz, &v = verdict.valid_values;
       if (velocity)
         {
-          const auto a = velocity_answer(f, v);
-          answer["peak_velocity_m_per_s"]      = a.peak_velocity_m_per_s;
-          answer["peak_velocity_frequency_Hz"] = a.peak_frequency_Hz;
-          answer["highest_velocity_m_per_s"]      = a.highest_velocity_m_per_s;
-          answer["highest_velocity_frequency_Hz"] = a.highest_frequency_Hz;
-          answer["first_reversal_Hz"]          = std::isfinite(a.first_reversal_Hz) ? nlohmann::json(a.first_reversal_Hz) :
-                                                                                     nlohmann::json(nullptr);
-          answer["current_pp_A"]   = s.current_pp_A;
-          answer["current_bias_A"] = s.current_bias_A;
+          const auto a   = velocity_answer(f, v), all = velocity_answer(verdict.frequencies_Hz, verdict.values);
+          answer["peak_velocity_m_per_s"]         = number(a.peak_velocity_m_per_s);
+          answer["peak_velocity_frequency_Hz"]    = number(a.peak_frequency_Hz);
+          answer["highest_velocity_m_per_s"]      = number(a.highest_velocity_m_per_s);
+          answer["highest_velocity_frequency_Hz"] = number(a.highest_frequency_Hz);
+          answer["first_reversal_Hz"]             = number(a.first_reversal_Hz);
+          answer["all_points_first_reversal_Hz"]  = number(all.first_reversal_Hz);
+          answer["all_points_peak_velocity_m_per_s"] = number(all.peak_velocity_m_per_s);
         }
       else
         {
-          const auto a = pressure_answer(f, v);
-          answer["low_frequency_pressure_Pa"] = a.low_frequency_pressure_Pa;
-          answer["half_pressure_frequency_Hz"] =
-            std::isfinite(a.half_pressure_frequency_Hz) ? nlohmann::json(a.half_pressure_frequency_Hz) :
-                                                          nlohmann::json(nullptr);
-          answer["current_pp_A"]   = s.current_pp_A;
-          answer["current_bias_A"] = s.current_bias_A;
+          const auto a = pressure_answer(f, v), all = pressure_answer(verdict.frequencies_Hz, verdict.values);
+          answer["low_frequency_pressure_Pa"]           = number(a.low_frequency_pressure_Pa);
+          answer["half_pressure_frequency_Hz"]          = number(a.half_pressure_frequency_Hz);
+          answer["all_points_half_pressure_frequency_Hz"] = number(all.half_pressure_frequency_Hz);
         }
       write_json(dir / "answer.json", answer); // last: the job's mark of completion
     }
@@ -774,6 +777,17 @@ namespace rectify::whatif
     }
 
     // ------------------------------------------------------------- the summary
+    /// The designs' worst Goodman factor against key `k`, 1 marked: below
+    /// it a reed does not survive its cycles.
+    PlotPanel design_life_panel(const fs::path &data, const std::string &k, const std::string &label, double scale)
+    {
+      PlotPanel p{"Worst Goodman factor of the reeds (both sweeps): below 1 a reed does not survive", label,
+                  "Goodman factor", false, true,
+                  {{data, k, "worst_goodman_factor", "worst over the runs", "linespoints", scale, 1}}};
+      p.levels.push_back({1.0, "survives above"});
+      return p;
+    }
+
     std::string axis_label(const std::string &key, double &scale)
     {
       scale = 1;
@@ -804,7 +818,9 @@ namespace rectify::whatif
         "k_r_N_per_m", "f1_vacuum_Hz", "f1_oil_Hz", "m_r_eq321_kg", "R_10um_Pa_s_per_m3", "R_100um_Pa_s_per_m3",
         "A_eff_100um_m2", "map_openings", "bandwidth_Hz", "peak_velocity_m_per_s", "peak_velocity_frequency_Hz",
         "highest_velocity_m_per_s", "highest_velocity_frequency_Hz", "stored_pressure_low_Pa",
-        "half_pressure_frequency_Hz"};
+        "half_pressure_frequency_Hz", "velocity_valid_points", "pressure_valid_points", "worst_goodman_factor",
+        "max_impact_velocity_m_per_s", "survives_to_Hz", "valid_to_Hz", "bandwidth_all_points_Hz",
+        "peak_velocity_all_points_m_per_s"};
       std::ostringstream csv;
       csv << "design";
       for (const auto &k : keys)
@@ -881,33 +897,43 @@ namespace rectify::whatif
           bool answered[2] = {false, false};
           for (const std::string kind : {"velocity", "pressure"})
             {
-              // The answers from the sweep's table (answer.json marks the job finished).
+              // The answers the sweep job wrote (answer.json marks it finished).
               const auto dir = paths.design(dc.design.name) / kind;
               if (!fs::exists(dir / "answer.json"))
                 continue;
-              const auto          sweep = read_csv(dir / "sweep.csv");
-              std::vector<double> f, y;
-              for (const auto &r : sweep.rows)
-                if (std::isfinite(r[1]))
-                  f.push_back(r[0]), y.push_back(r[1]);
+              const auto a   = read_json_file(dir / "answer.json");
+              const auto get = [&](const char *key) {
+                return a.contains(key) && a[key].is_number() ? a[key].get<double>() : nan;
+              };
+              const char *const taken[][2] =
+                {{"peak_velocity_m_per_s", "peak_velocity_m_per_s"},
+                 {"peak_velocity_frequency_Hz", "peak_velocity_frequency_Hz"},
+                 {"highest_velocity_m_per_s", "highest_velocity_m_per_s"},
+                 {"highest_velocity_frequency_Hz", "highest_velocity_frequency_Hz"},
+                 {"bandwidth_Hz", "first_reversal_Hz"},
+                 {"bandwidth_all_points_Hz", "all_points_first_reversal_Hz"},
+                 {"peak_velocity_all_points_m_per_s", "all_points_peak_velocity_m_per_s"},
+                 {"survives_to_Hz", "survives_to_Hz"},
+                 {"valid_to_Hz", "valid_to_Hz"}};
               if (kind == "velocity")
-                {
-                  const auto a                       = velocity_answer(f, y);
-                  v["peak_velocity_m_per_s"]         = a.peak_velocity_m_per_s;
-                  v["peak_velocity_frequency_Hz"]    = a.peak_frequency_Hz;
-                  v["highest_velocity_m_per_s"]      = a.highest_velocity_m_per_s;
-                  v["highest_velocity_frequency_Hz"] = a.highest_frequency_Hz;
-                  v["bandwidth_Hz"]                  = a.first_reversal_Hz;
-                }
+                for (const auto &[column, key] : taken)
+                  v[column] = get(key);
               else
                 {
-                  const auto a                    = pressure_answer(f, y);
-                  v["stored_pressure_low_Pa"]     = a.low_frequency_pressure_Pa;
-                  v["half_pressure_frequency_Hz"] = a.half_pressure_frequency_Hz;
+                  v["stored_pressure_low_Pa"]     = get("low_frequency_pressure_Pa");
+                  v["half_pressure_frequency_Hz"] = get("half_pressure_frequency_Hz");
                 }
+              // the design's worst over both sweeps
+              const double g = get("worst_goodman_factor"), impact = get("max_impact_velocity_m_per_s");
+              if (std::isfinite(g))
+                v["worst_goodman_factor"] = std::isfinite(v["worst_goodman_factor"]) ? std::min(v["worst_goodman_factor"], g) : g;
+              if (std::isfinite(impact))
+                v["max_impact_velocity_m_per_s"] = std::isfinite(v["max_impact_velocity_m_per_s"]) ?
+                                                     std::max(v["max_impact_velocity_m_per_s"], impact) : impact;
+              v[kind + "_valid_points"]    = get("valid_points");
               answered[kind == "velocity" ? 0 : 1] = true;
-              row[kind + "_points"]        = sweep.rows.size();
-              row[kind + "_failed_points"] = sweep.rows.size() - f.size();
+              row[kind + "_points"]        = a.value("points", 0);
+              row[kind + "_failed_points"] = a.value("failed_points", 0);
             }
           if (status == "ok" && (!paths.map_set_done(h) || !answered[0] || !answered[1]))
             add_failure("batch", "not finished");
@@ -945,10 +971,17 @@ namespace rectify::whatif
                   {"rectify_version", RECTIFY_VERSION},
                   {"batch", bs.definition()},
                   {"columns",
-                   {{"bandwidth_Hz", "the loaded sweep's first velocity reversal (linear between the points around it)"},
+                   {{"bandwidth_Hz", "the loaded sweep's first velocity reversal (linear between the points around it), "
+                                     "from its valid runs only (system/validity.h: no reed beyond its map or stop, no "
+                                     "pressure below cavitation, every reed's Goodman factor at least 1)"},
                     {"peak_velocity_m_per_s",
                      "the loaded sweep's largest mean output velocity below its first reversal (the usable band), at "
-                     "peak_velocity_frequency_Hz"},
+                     "peak_velocity_frequency_Hz; valid runs only"},
+                    {"*_all_points_*", "the same from every run, valid or not: what the states hardware cannot reach would claim"},
+                    {"worst_goodman_factor", "the smallest Goodman factor of either reed over every run of both sweeps"},
+                    {"max_impact_velocity_m_per_s", "the fastest seat or stop impact of either reed over both sweeps"},
+                    {"survives_to_Hz", "the loaded sweep's highest frequency up to which every run's Goodman factor is >= 1"},
+                    {"valid_to_Hz", "the loaded sweep's highest frequency up to which every run is valid"},
                     {"highest_velocity_m_per_s", "the largest anywhere in the sweep (a band above a reversal can be higher)"},
                     {"half_pressure_frequency_Hz",
                      "the no-flow sweep's first frequency where the stored pressure has fallen to half of its value at "
@@ -977,10 +1010,16 @@ namespace rectify::whatif
                         {{data, k, "bandwidth_Hz", "first velocity reversal, loaded", "linespoints", scale, 1},
                          {data, k, "half_pressure_frequency_Hz", "stored pressure at half, no flow", "linespoints",
                           scale, 1},
-                         {data, k, "peak_velocity_frequency_Hz", "peak velocity's frequency", "linespoints", scale, 1}}},
+                         {data, k, "peak_velocity_frequency_Hz", "peak velocity's frequency", "linespoints", scale, 1},
+                         {data, k, "survives_to_Hz", "the reed survives (Goodman >= 1) up to", "linespoints", scale, 1},
+                         {data, k, "bandwidth_all_points_Hz", "first reversal, every run (not valid ones too)",
+                          "points pt 6", scale, 1}}},
                        {"Peak mean output velocity (loaded)", label, "velocity [mm/s]", false, false,
                         {{data, k, "peak_velocity_m_per_s", "below the first reversal", "linespoints", scale, 1e3},
                          {data, k, "highest_velocity_m_per_s", "anywhere in the sweep", "linespoints", scale, 1e3}}},
+                       design_life_panel(data, k, label, scale),
+                       {"Fastest impact at seat or stop (both sweeps)", label, "impact velocity [m/s]", false, false,
+                        {{data, k, "max_impact_velocity_m_per_s", "either reed", "linespoints", scale, 1}}},
                        {"Reed stiffness k_r (FE)", label, "k_r [N/m]", true, true,
                         {{data, k, "k_r_N_per_m", "k_r", "linespoints", scale, 1}}},
                        {"Reed's first mode (FE)", label, "f1 [Hz]", true, true,
@@ -1126,6 +1165,40 @@ namespace rectify::whatif
     if (const char *h = std::getenv("HOME"); h != nullptr && *h != '\0')
       return fs::path(h) / ".cache" / "rectify" / "map-sets";
     return fs::temp_directory_path() / "rectify-map-sets";
+  }
+
+  SweepVerdict sweep_verdict(const std::vector<system::SweepPoint> &points, bool velocity)
+  {
+    SweepVerdict d;
+    d.points          = points.size();
+    bool survives     = true, valid = true;
+    for (const auto &pt : points)
+      {
+        const double value = velocity ? pt.mean_velocity_m_per_s : pt.stored_pressure_Pa;
+        if (pt.failed() || !std::isfinite(value))
+          {
+            ++d.failed_points;
+            continue;
+          }
+        d.frequencies_Hz.push_back(pt.frequency_Hz);
+        d.values.push_back(value);
+        d.worst_goodman_factor        = std::min(d.worst_goodman_factor, pt.goodman_factor);
+        d.max_impact_velocity_m_per_s = std::max({d.max_impact_velocity_m_per_s, pt.max_seat_impact_m_per_s,
+                                                  pt.max_stop_impact_m_per_s});
+        survives = survives && !pt.goodman_below_1;
+        valid    = valid && pt.valid;
+        if (survives)
+          d.survives_to_Hz = pt.frequency_Hz;
+        if (valid)
+          d.valid_to_Hz = pt.frequency_Hz;
+        if (pt.valid)
+          {
+            ++d.valid_points;
+            d.valid_frequencies_Hz.push_back(pt.frequency_Hz);
+            d.valid_values.push_back(value);
+          }
+      }
+    return d;
   }
 
   VelocityAnswer velocity_answer(const std::vector<double> &f, const std::vector<double> &v)

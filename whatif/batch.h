@@ -24,12 +24,14 @@
 
 #include <filesystem>
 #include <functional>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 #include "common/case_file.h"
 #include "stokes_solver/resistance_sweep.h"
+#include "system/sweep.h"
 #include "stokes_solver/stokes.h"
 #include "whatif/designs.h"
 
@@ -113,6 +115,26 @@ namespace rectify::whatif
     double low_frequency_pressure_Pa = 0, half_pressure_frequency_Hz = 0;
   };
   PressureAnswer pressure_answer(const std::vector<double> &frequencies_Hz, const std::vector<double> &pressures);
+
+  /// What a design's sweep says once each run's validity is read
+  /// (system/validity.h): its valid runs' frequencies and values (the
+  /// answers above are taken from these), and what the runs reached.
+  struct SweepVerdict
+  {
+    std::vector<double> valid_frequencies_Hz, valid_values; ///< ascending
+    std::vector<double> frequencies_Hz, values;             ///< every finished run's
+    std::size_t         points = 0, valid_points = 0, failed_points = 0;
+    double worst_goodman_factor        = std::numeric_limits<double>::infinity(); ///< over the finished runs
+    double max_impact_velocity_m_per_s = 0; ///< at seat or stop, over the finished runs
+    /// The highest frequency up to which every finished run's Goodman
+    /// factor is at least 1 (the reed survives), and up to which every run
+    /// is valid; NaN if not even the lowest's is.
+    double survives_to_Hz = std::numeric_limits<double>::quiet_NaN();
+    double valid_to_Hz    = std::numeric_limits<double>::quiet_NaN();
+  };
+  /// `points`: one series of a sweep, ascending in frequency; `velocity`:
+  /// its metric is the mean velocity (else the stored pressure).
+  SweepVerdict sweep_verdict(const std::vector<system::SweepPoint> &points, bool velocity);
 
   struct BatchReport
   {
