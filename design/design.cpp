@@ -119,6 +119,10 @@ namespace rectify::design
     reed.frequency_in_fluid_Hz   = rs.fluid.frequency_Hz;
     reed.plate_mass_kg           = r.plate_mass_kg;
     reed.added_mass_kg           = rs.bounds.added_mass_kg;
+    reed.root_stress_per_opening_Pa_per_m             = r.root_stress_per_opening_Pa_per_m;
+    reed.root_stress_beam_per_opening_Pa_per_m        = r.root_stress_beam_per_opening_Pa_per_m;
+    reed.root_stress_concentration                    = r.root_stress_concentration;
+    reed.second_mode_root_stress_per_opening_Pa_per_m = r.second_mode_root_stress_per_opening_Pa_per_m;
     rs.shape_csv   = stiffness::shape_csv(r, sp);
     rs.wall_time_s = seconds_since(t);
     if (write_files)

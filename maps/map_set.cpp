@@ -49,7 +49,11 @@ namespace rectify::maps
             {"frequency_Hz", frequency_Hz},
             {"frequency_in_fluid_Hz", frequency_in_fluid_Hz},
             {"plate_mass_kg", plate_mass_kg},
-            {"added_mass_kg", added_mass_kg}};
+            {"added_mass_kg", added_mass_kg},
+            {"root_stress_per_opening_Pa_per_m", root_stress_per_opening_Pa_per_m},
+            {"root_stress_beam_per_opening_Pa_per_m", root_stress_beam_per_opening_Pa_per_m},
+            {"root_stress_concentration", root_stress_concentration},
+            {"second_mode_root_stress_per_opening_Pa_per_m", second_mode_root_stress_per_opening_Pa_per_m}};
   }
 
   ReedProperties ReedProperties::from_json(const nlohmann::json &j, const std::string &where)
@@ -63,6 +67,17 @@ namespace rectify::maps
     r.frequency_in_fluid_Hz   = number(j, "frequency_in_fluid_Hz", where);
     r.plate_mass_kg           = number(j, "plate_mass_kg", where);
     r.added_mass_kg           = number(j, "added_mass_kg", where);
+    if (j.contains("root_stress_per_opening_Pa_per_m")) // absent in map sets written before
+      {
+        r.root_stress_per_opening_Pa_per_m      = number(j, "root_stress_per_opening_Pa_per_m", where);
+        r.root_stress_beam_per_opening_Pa_per_m = number(j, "root_stress_beam_per_opening_Pa_per_m", where);
+        r.root_stress_concentration             = number(j, "root_stress_concentration", where);
+        r.second_mode_root_stress_per_opening_Pa_per_m =
+          number(j, "second_mode_root_stress_per_opening_Pa_per_m", where);
+        if (!(r.root_stress_per_opening_Pa_per_m > 0))
+          throw InputError(where + ": root_stress_per_opening_Pa_per_m = " +
+                           format_number(r.root_stress_per_opening_Pa_per_m) + ": must be positive");
+      }
     for (double v : {r.stiffness_N_per_m, r.modal_mass_kg, r.modal_mass_in_fluid_kg, r.effective_mass_eq321_kg})
       if (!(v > 0))
         throw InputError(where + ": the reed's stiffness and masses must be positive, got " + format_number(v));

@@ -46,6 +46,15 @@ namespace rectify::maps
     double frequency_in_fluid_Hz    = 0;
     double plate_mass_kg            = 0;
     double added_mass_kg            = 0; ///< eq. 3.20
+    /// The clamp's bending stress per unit mean tip deflection [Pa/m]
+    /// (stiffness_solver/elasticity.h): FE width-mean, beam theory's, the
+    /// corners' concentration, the second bending mode's. 0: a map set
+    /// written before they existed.
+    double root_stress_per_opening_Pa_per_m             = 0;
+    double root_stress_beam_per_opening_Pa_per_m        = 0;
+    double root_stress_concentration                    = 0;
+    double second_mode_root_stress_per_opening_Pa_per_m = 0;
+    bool   has_stress() const { return root_stress_per_opening_Pa_per_m > 0; }
     nlohmann::json to_json() const;
     static ReedProperties from_json(const nlohmann::json &j, const std::string &where);
   };

@@ -54,6 +54,14 @@ namespace rectify::stiffness
   {
     constexpr unsigned int dim = 3;
 
+    /// The underside's bending stress at the clamp line for a displacement u
+    /// (tension positive): the width-mean from the section's moment, and the
+    /// peak principal stress one fit station from the clamp over its mean.
+    struct RootStress
+    {
+      double mean_Pa = 0, concentration = 1;
+    };
+
     class ReedElasticity
     {
     public:
@@ -71,6 +79,7 @@ namespace rectify::stiffness
       void output_results() const;
 
       double tip_face_integral(const Vector<double> &u, bool antisymmetric) const;
+      RootStress root_stress(const Vector<double> &u, double fit_to_m) const;
       double value_z(const Vector<double> &u, const Point<dim> &p) const;
 
       void make_outline_grid();
@@ -400,6 +409,77 @@ namespace rectify::stiffness
       return v[2];
     }
 
+    // The underside's axial stress integrated across the width, S(x) =
+    // int sigma_xx dy = 6 M(x) / t^2 for a plate in bending, at six stations
+    // from four thicknesses off the clamp (its clamped edge's stress is
+    // singular) to fit_to_m; a quadratic through them extrapolated to x = 0,
+    // over the clamp line's width: the root's mean bending stress, exact for
+    // a moment linear or quadratic in x whatever the width does. The first
+    // station's peak principal stress over its mean sigma_xx is the corners'
+    // concentration there.
+    RootStress ReedElasticity::root_stress(const Vector<double> &u, double fit_to_m) const
+    {
+      const double E = p_.material.youngs_modulus_Pa, nu = p_.material.poisson_ratio;
+      const double lambda = E * nu / ((1 + nu) * (1 - 2 * nu)), mu = E / (2 * (1 + nu));
+      const auto   stress_at = [&](double x, double y) {
+        std::vector<Tensor<1, dim>> grad(dim);
+        VectorTools::point_gradient(dof_handler_, u, Point<dim>(x, y, 0.0), grad);
+        SymmetricTensor<2, dim> strain;
+        for (unsigned i = 0; i < dim; ++i)
+          for (unsigned j = i; j < dim; ++j)
+            strain[i][j] = 0.5 * (grad[i][j] + grad[j][i]);
+        return SymmetricTensor<2, dim>(lambda * trace(strain) * unit_symmetric_tensor<dim>() + 2 * mu * strain);
+      };
+      const double x_from = 4 * t_;
+      if (!(fit_to_m > 1.5 * x_from))
+        throw std::runtime_error("the root stress's fit runs from four thicknesses off the clamp (" +
+                                 format_number(x_from) + " m) to where the load starts (" + format_number(fit_to_m) +
+                                 " m): too short for this reed");
+      const int n_stations = 6, n_across = 21;
+      double    A[3][3] = {}, b[3] = {}, S0 = 0, peak0 = 0, width0 = 0;
+      for (int k = 0; k < n_stations; ++k)
+        {
+          const double x = x_from + (fit_to_m - x_from) * k / (n_stations - 1.0);
+          double       S = 0, width = 0, peak = -1e300;
+          for (auto [y0, y1] : geometry::chord_intervals(outline_, x))
+            {
+              const double inset = 1e-7 * (y1 - y0);
+              y0 += inset, y1 -= inset;
+              for (int j = 0; j < n_across; ++j)
+                {
+                  const double y     = y0 + (y1 - y0) * j / (n_across - 1.0);
+                  const auto   sigma = stress_at(x, y);
+                  const double w     = (j == 0 || j == n_across - 1) ? 0.5 : 1.0;
+                  S += w * (y1 - y0) / (n_across - 1.0) * sigma[0][0];
+                  peak = std::max(peak, eigenvalues(sigma)[0]);
+                }
+              width += y1 - y0;
+            }
+          if (k == 0)
+            S0 = S, peak0 = peak, width0 = width;
+          const double phi[3] = {1, x, x * x};
+          for (int i = 0; i < 3; ++i)
+            {
+              b[i] += phi[i] * S;
+              for (int j = 0; j < 3; ++j)
+                A[i][j] += phi[i] * phi[j];
+            }
+        }
+      const auto det = [](const double m[3][3]) {
+        return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+               m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+      };
+      double A0[3][3];
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+          A0[i][j] = j == 0 ? b[i] : A[i][j];
+      const auto clamp = p_.geometry.clamp_line_y();
+      RootStress r;
+      r.mean_Pa       = det(A0) / det(A) / (clamp[1] - clamp[0]);
+      r.concentration = peak0 / (S0 / width0);
+      return r;
+    }
+
     void ReedElasticity::compute_modes()
     {
       const unsigned int n_modes = p_.settings.n_modes;
@@ -539,9 +619,27 @@ namespace rectify::stiffness
           l.small_deflection    = l.deflection_ratio <= p_.settings.max_linear_deflection_ratio;
           result_.levels.push_back(l);
         }
+      // The load's nearest edge to the clamp: up to there the moment is linear
+      // in x (quadratic under a uniform pressure).
+      double unloaded_to = 0.6 * L_;
+      if (p_.settings.load == Load::port_pressure)
+        for (const auto &port : ports_)
+          for (const auto &q : port.polygon())
+            unloaded_to = std::min(unloaded_to, q[0]);
+      const auto root = root_stress(solution_, unloaded_to);
+      result_.root_stress_per_opening_Pa_per_m      = root.mean_Pa / tip;
+      result_.root_stress_concentration              = root.concentration;
+      // Beam theory (a uniform cantilever, E): sigma_root / tip deflection.
+      const double E = p_.material.youngs_modulus_Pa, a = p_.geometry.port_center_x_m;
+      result_.root_stress_beam_per_opening_Pa_per_m = p_.settings.load == Load::port_pressure ? 3 * E * t_ / (a * (3 * L_ - a)) :
+                                                      p_.settings.load == Load::tip_line      ? 1.5 * E * t_ / (L_ * L_) :
+                                                                                                2 * E * t_ / (L_ * L_);
       if (options_.compute_modes)
         compute_modes();
       phase("modes");
+      for (std::size_t k = 0, bending = 0; k < result_.modes.size(); ++k)
+        if (result_.modes[k].kind == "bending" && ++bending == 2)
+          result_.second_mode_root_stress_per_opening_Pa_per_m = root_stress(mode_shapes_[k], 0.3 * L_).mean_Pa;
       sample_shape();
       phase("shape");
       output_results();

@@ -39,6 +39,16 @@ namespace rectify::stiffness
     std::vector<LoadLevel> levels;
     std::vector<Mode>      modes;
     double      plate_mass_kg = 0;
+    /// The underside's bending stress at the clamp line per unit mean tip
+    /// deflection [Pa/m] (tension while the reed opens): the width-mean from
+    /// the FE section moment, beam theory's for the same load beside it, the
+    /// corners' peak principal stress over the mean four thicknesses off the clamp,
+    /// and the second bending mode's (0 without modes; its sign says on which
+    /// side the mode's positive tip deflection pulls).
+    double      root_stress_per_opening_Pa_per_m             = 0;
+    double      root_stress_beam_per_opening_Pa_per_m        = 0;
+    double      root_stress_concentration                    = 1;
+    double      second_mode_root_stress_per_opening_Pa_per_m = 0;
     /// The deflected underside under the load, normalised to a unit mean tip
     /// deflection: s from the clamp, phi averaged across the width, and on the
     /// centre line. phi(0) = 0, phi(L) = 1.

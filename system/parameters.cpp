@@ -307,6 +307,14 @@ namespace rectify::system
         if (!override_case && f.has("reed", key))
           throw InputError(f.where("reed", key) + ": the map set '" + reed_from +
                            "' gives the reed's stiffness and mass; remove " + key);
+      if (!reed->has_stress())
+        throw InputError("map set '" + reed_from + "' (manifest.json, reed): no root_stress_per_opening_Pa_per_m: "
+                         "it gives the reed but not its root stress, which the run's Goodman factor needs; "
+                         "rebuild it with this version's rectify design");
+      p.reed.root_stress_per_opening_Pa_per_m             = reed->root_stress_per_opening_Pa_per_m;
+      p.reed.second_mode_root_stress_per_opening_Pa_per_m = reed->second_mode_root_stress_per_opening_Pa_per_m;
+      p.reed.stress_source = "FE root stress of map set " + reed_from + " (width mean; its corners " +
+                             format_number(reed->root_stress_concentration) + " x that, four thicknesses off the clamp)";
       const bool eq321 = p.reed.properties_mass == "eq321";
       p.reed.stiffness_N_per_m = reed->stiffness_N_per_m;
       p.reed.effective_mass_kg = eq321 ? reed->effective_mass_eq321_kg : reed->modal_mass_in_fluid_kg;

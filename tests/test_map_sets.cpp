@@ -159,6 +159,7 @@ TEST(MapSets, CaseAndMapSetMustAgree)
   reed.stiffness_N_per_m = 6492, reed.modal_mass_kg = 7.8e-6, reed.modal_mass_in_fluid_kg = 3.4e-5;
   reed.effective_mass_eq321_kg = 3.83e-4, reed.frequency_Hz = 2843, reed.frequency_in_fluid_Hz = 1351;
   reed.plate_mass_kg = 3.1e-5, reed.added_mass_kg = 1.08e-4;
+  reed.root_stress_per_opening_Pa_per_m = 1.6e12, reed.root_stress_concentration = 1.2;
   const auto p = reference();
   const maps::MapSet set(reference_map(p), maps::AreaMap::constant(15e-6, "A"), 7.917e-6, reed,
                          {{"depends_on", maps::hashed_tables(maps::physical_tables({}, {}, {}))}});
@@ -188,6 +189,26 @@ TEST(MapSets, CaseAndMapSetMustAgree)
   refused(use + "resistance_map = \"x.csv\"\n", "resistance_map");
   refused(use + "outlet_map_set = \"" + dir.string() + "\"\n", "outlet_map_set");
   refused("[valves]\nmap_set = \"" + (dir / "nowhere").string() + "\"\n", "[valves] map_set = ");
+  // The reed's FE root stress comes with it; a map set written without it
+  // (before it existed) is refused where the run needs it, naming the key.
+  EXPECT_EQ(q.reed.root_stress_per_opening_Pa_per_m, 1.6e12);
+  EXPECT_NE(q.reed.stress_source.find("FE root stress of map set"), std::string::npos) << q.reed.stress_source;
+  {
+    auto old_reed = reed;
+    old_reed.root_stress_per_opening_Pa_per_m = 0;
+    auto old_json = old_reed.to_json();
+    for (const char *key : {"root_stress_per_opening_Pa_per_m", "root_stress_beam_per_opening_Pa_per_m",
+                            "root_stress_concentration", "second_mode_root_stress_per_opening_Pa_per_m"})
+      old_json.erase(key);
+    const auto back = maps::ReedProperties::from_json(old_json, "old");
+    EXPECT_FALSE(back.has_stress());
+    const auto old_dir = scratch("case_map_set_without_stress");
+    maps::MapSet(reference_map(p), maps::AreaMap::constant(15e-6, "A"), 7.917e-6, back,
+                 {{"depends_on", maps::hashed_tables(maps::physical_tables({}, {}, {}))}})
+      .write(old_dir);
+    refused("[valves]\nmap_set = \"" + old_dir.string() + "\"\n", "root_stress_per_opening_Pa_per_m");
+    refused("[valves]\nmap_set = \"" + old_dir.string() + "\"\n", old_dir.string());
+  }
   // One valve on the map set, the other on the thesis's R(x) and A_r.
   const auto one = SystemParameters::from_case(
     CaseFile::parse("[valves]\noutlet_map_set = \"" + dir.string() + "\"\n", "one.toml",

@@ -244,6 +244,7 @@ namespace
     reed.stiffness_N_per_m = 6492, reed.modal_mass_kg = 7.8e-6, reed.modal_mass_in_fluid_kg = 3.4e-5;
     reed.effective_mass_eq321_kg = 3.83e-4, reed.frequency_Hz = 2843, reed.frequency_in_fluid_Hz = 1351;
     reed.plate_mass_kg = 3.1e-5, reed.added_mass_kg = 1.08e-4;
+  reed.root_stress_per_opening_Pa_per_m = 1.6e12, reed.root_stress_concentration = 1.2;
     nlohmann::json manifest = {
       {"source", "test"},
       {"depends_on", maps::hashed_tables(maps::physical_tables(geometry, FluidParameters{}, ReedMaterial{}))}};

@@ -116,8 +116,10 @@ TEST(Stop, TheReedsEnergyBalanceClosesWithStopImpactsAndItReboundsAtTheRestituti
   EXPECT_GT(reed.impact_loss, 0.05 * y[2]); // the impacts matter to the balance
   ASSERT_FALSE(reed.rebounds.empty());
   for (const auto &[in, out] : reed.rebounds)
-    if (e_stop * in >= 1e-6)
-      EXPECT_DOUBLE_EQ(out, -e_stop * in);
+    {
+      if (e_stop * in >= 1e-6)
+        EXPECT_DOUBLE_EQ(out, -e_stop * in);
+    }
 }
 
 TEST(Stop, AReedDrivenIntoItsStopNeverPassesItAndIsHeldThere)
