@@ -1,6 +1,7 @@
 #include "common/plot.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
@@ -27,6 +28,43 @@ namespace rectify
       throw std::logic_error("plot: no column '" + name + "' in " + file.string());
     }
 
+    /// Whether `file` has a row whose columns `cx` and `cy` (1-based) both
+    /// hold finite numbers: gnuplot refuses a plot whose every series is
+    /// empty (a what-if whose designs have no valid run leaves its answer
+    /// columns blank).
+    bool has_points(const std::filesystem::path &file, int cx, int cy)
+    {
+      std::ifstream in(file);
+      std::string   line;
+      bool          header = true;
+      while (std::getline(in, line))
+        {
+          if (line.empty() || line[0] == '#')
+            continue;
+          if (header)
+            {
+              header = false;
+              continue;
+            }
+          std::istringstream row(line);
+          std::string        cell;
+          bool               x_ok = false, y_ok = false;
+          for (int c = 1; std::getline(row, cell, ','); ++c)
+            if (c == cx || c == cy)
+              {
+                char        *end = nullptr;
+                const double v   = std::strtod(cell.c_str(), &end);
+                const bool   ok  = !cell.empty() && end != cell.c_str() && std::isfinite(v);
+                (c == cx ? x_ok : y_ok) = ok;
+                if (cx == cy)
+                  x_ok = y_ok = ok;
+              }
+          if (x_ok && y_ok)
+            return true;
+        }
+      return false;
+    }
+
     std::string quote(const std::string &s)
     {
       std::string out = "\"";
@@ -47,16 +85,30 @@ namespace rectify
             << "\nset ylabel " << quote(p.y_label) << "\n"
             << (p.log_x ? "set logscale x\n" : "unset logscale x\n")
             << (p.log_y ? "set logscale y\n" : "unset logscale y\n")
-            << (p.equal_axes ? "set size ratio -1\nset offsets graph 0.04, graph 0.04, graph 0.04, graph 0.04\n" : "") << "plot ";
-          for (std::size_t i = 0; i < p.series.size(); ++i)
+            << (p.equal_axes ? "set size ratio -1\nset offsets graph 0.04, graph 0.04, graph 0.04, graph 0.04\n" : "");
+          std::vector<std::string> drawn;
+          for (const auto &r : p.series)
             {
-              const auto &r  = p.series[i];
-              const int   cx = column_number(r.data_file, r.x_column);
-              const int   cy = column_number(r.data_file, r.y_column);
-              s << (i ? ", \\\n     " : "") << quote(r.data_file.filename().string())
-                << " every " << std::max<std::size_t>(r.stride, 1) << "::1 using ($" << cx << "*" << r.x_scale << "):($" << cy << "*"
-                << r.y_scale << ") with " << r.style << " title " << quote(r.title);
+              const int cx = column_number(r.data_file, r.x_column);
+              const int cy = column_number(r.data_file, r.y_column);
+              if (!has_points(r.data_file, cx, cy))
+                continue;
+              std::ostringstream one;
+              one << quote(r.data_file.filename().string()) << " every " << std::max<std::size_t>(r.stride, 1)
+                  << "::1 using ($" << cx << "*" << r.x_scale << "):($" << cy << "*" << r.y_scale << ") with "
+                  << r.style << " title " << quote(r.title);
+              drawn.push_back(one.str());
             }
+          if (drawn.empty())
+            {
+              // An empty panel, said so: no series has a point to draw.
+              s << "unset logscale\nset xrange [0:1]\nset yrange [0:1]\nset label 1 "
+                << quote("no points to draw (every value blank or not a number)") << " at graph 0.5, 0.5 center\n"
+                << "plot NaN notitle\nunset label 1\nset autoscale xy\n";
+              continue;
+            }
+          for (std::size_t i = 0; i < drawn.size(); ++i)
+            s << (i ? ", \\\n     " : "plot ") << drawn[i];
           for (const auto &level : p.levels)
             s << ", \\\n     " << level.y << " with lines dt 2 lw 1.5 title " << quote(level.title);
           s << "\n";

@@ -2,11 +2,15 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <string>
 
 #include "common/case_file.h"
 #include "common/io.h"
+#include "common/plot.h"
 #include "app/case_loading.h"
 #include "system/parameters.h"
 
@@ -144,4 +148,29 @@ TEST(Io, CsvErrorsNameFileLineAndColumn)
   const auto data = parse_csv("# comment\ntime_s,current_A\n0,1\n", "d.csv");
   EXPECT_EQ(data.rows.size(), 1u);
   expect_input_error([&] { data.column_index("voltage_V", "d.csv"); }, {"missing column 'voltage_V'"});
+}
+
+// A panel whose series have no number to draw (a what-if whose designs have
+// no valid run leaves its answers blank) is drawn empty and says so; the
+// other panels and the figure are still written.
+TEST(Plot, APanelWithoutPointsIsDrawnEmptyAndTheFigureStillWritten)
+{
+  if (std::system("command -v gnuplot > /dev/null 2>&1") != 0)
+    GTEST_SKIP() << "no gnuplot";
+  const auto dir = std::filesystem::temp_directory_path() / "rectify_test_plot";
+  std::filesystem::remove_all(dir);
+  ensure_directory(dir);
+  write_file_atomic(dir / "d.csv", "x,y,blank\n1,2,\n2,3,nan\n3,1,\n");
+  const PlotSeries filled{dir / "d.csv", "x", "y", "y", "linespoints"};
+  const PlotSeries empty{dir / "d.csv", "x", "blank", "blank", "linespoints"};
+  ASSERT_TRUE(render_plot(dir / "fig", {{"filled", "x", "y", false, false, {filled, empty}},
+                                        {"empty", "x", "y", false, true, {empty}}}));
+  EXPECT_TRUE(std::filesystem::exists(dir / "fig.png"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "fig.svg"));
+  std::ifstream     in(dir / "fig.gp");
+  const std::string script((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(script.find("no points to draw"), std::string::npos);
+  EXPECT_EQ(script.find("using ($1*1):($3*1)"), std::string::npos) << script; // the blank column is not plotted
+  EXPECT_NE(script.find("using ($1*1):($2*1)"), std::string::npos) << script;
+  std::filesystem::remove_all(dir);
 }
