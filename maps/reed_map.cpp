@@ -21,8 +21,12 @@ namespace rectify::maps
   {
     static const std::vector<std::string> c{"thickness_m",           "stiffness_N_per_m",     "frequency_Hz",
                                             "modal_mass_kg",         "frequency_in_fluid_Hz", "modal_mass_in_fluid_kg",
-                                            "effective_mass_eq321_kg", "frequency_eq321_Hz",  "n_dofs",
-                                            "wall_time_s"};
+                                            "effective_mass_eq321_kg", "frequency_eq321_Hz",
+                                            "root_stress_per_opening_Pa_per_m",
+                                            "root_stress_beam_per_opening_Pa_per_m",
+                                            "root_stress_concentration",
+                                            "second_mode_root_stress_per_opening_Pa_per_m",
+                                            "n_dofs",                "wall_time_s"};
     return c;
   }
 
@@ -78,7 +82,7 @@ namespace rectify::maps
     CsvTable table(columns_);
     for (const auto &r : rows_)
       table.add_row(r);
-    write_file_atomic(path, "# rectify reed map: k_r, f1 and masses vs reed thickness\n# meta: " + metadata_.dump() +
+    write_file_atomic(path, "# rectify reed map: k_r, f1, masses and root stress vs reed thickness\n# meta: " + metadata_.dump() +
                               "\n" + table.to_string());
   }
 
@@ -104,7 +108,23 @@ namespace rectify::maps
     const auto  &a = rows_[i];
     const auto  &b = rows_.size() > 1 ? rows_[i + 1] : rows_[i];
     const double s = b[0] > a[0] ? (thickness - a[0]) / (b[0] - a[0]) : 0.0;
-    const Properties p{a[1] + s * (b[1] - a[1]), a[cm] + s * (b[cm] - a[cm])};
+    const auto   linear = [&](std::size_t c) { return a[c] + s * (b[c] - a[c]); };
+    Properties   p{linear(1), linear(cm)};
+    const auto   has    = [&](const char *c) { return std::find(columns_.begin(), columns_.end(), c) != columns_.end(); };
+    if (has("root_stress_per_opening_Pa_per_m"))
+      {
+        p.root_stress_per_opening_Pa_per_m = linear(index("root_stress_per_opening_Pa_per_m", where));
+        p.second_mode_root_stress_per_opening_Pa_per_m =
+          has("second_mode_root_stress_per_opening_Pa_per_m")
+            ? linear(index("second_mode_root_stress_per_opening_Pa_per_m", where))
+            : 0.0;
+        p.root_stress_concentration =
+          has("root_stress_concentration") ? linear(index("root_stress_concentration", where)) : 1.0;
+        if (!(p.root_stress_per_opening_Pa_per_m > 0))
+          throw InputError("reed map '" + name_ + "': root_stress_per_opening_Pa_per_m = " +
+                           format_number(p.root_stress_per_opening_Pa_per_m) + " at " + format_number(thickness) +
+                           " m; it must be positive (the underside in tension while the reed opens)");
+      }
     if (!(p.stiffness_N_per_m > 0) || !(p.mass_kg > 0))
       throw InputError("reed map '" + name_ + "': non-positive stiffness or mass at " + format_number(thickness) + " m");
     return p;

@@ -7,7 +7,13 @@
 //   # rectify reed map: k_r, f1 and masses vs reed thickness
 //   # meta: {...}
 //   thickness_m,stiffness_N_per_m,frequency_Hz,modal_mass_kg,frequency_in_fluid_Hz,
-//     modal_mass_in_fluid_kg,effective_mass_eq321_kg,frequency_eq321_Hz,n_dofs,wall_time_s
+//     modal_mass_in_fluid_kg,effective_mass_eq321_kg,frequency_eq321_Hz,
+//     root_stress_per_opening_Pa_per_m,root_stress_beam_per_opening_Pa_per_m,
+//     root_stress_concentration,second_mode_root_stress_per_opening_Pa_per_m,n_dofs,wall_time_s
+//
+// The root stress columns are the FE root bending stress per unit tip opening
+// (docs/stiffness.md); a map written by an earlier rectify, or by hand,
+// may lack them, and then gives no stress (Properties::has_stress()).
 //
 // Invariants, checked on reading: columns thickness_m and stiffness_N_per_m
 // (the others as needed: a map written by hand may hold only the mass it
@@ -15,7 +21,9 @@
 // them, an error (never a silent clamp).
 #pragma once
 
+#include <cmath>
 #include <filesystem>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -39,9 +47,16 @@ namespace rectify::maps
     struct Properties
     {
       double stiffness_N_per_m, mass_kg;
+      /// The root stress per unit tip opening [Pa/m], first and second mode,
+      /// and the corners' concentration; NaN where the map has no such column.
+      double root_stress_per_opening_Pa_per_m             = std::numeric_limits<double>::quiet_NaN();
+      double second_mode_root_stress_per_opening_Pa_per_m = std::numeric_limits<double>::quiet_NaN();
+      double root_stress_concentration                    = std::numeric_limits<double>::quiet_NaN();
+      bool   has_stress() const { return std::isfinite(root_stress_per_opening_Pa_per_m); }
     };
-    /// k_r and the mass column `mass_column` ("effective_mass_eq321_kg" or
-    /// "modal_mass_in_fluid_kg") at `thickness_m`, linear between rows.
+    /// k_r, the mass column `mass_column` ("effective_mass_eq321_kg" or
+    /// "modal_mass_in_fluid_kg") and the root stress where the map has it at
+    /// `thickness_m`, linear between rows.
     /// InputError naming `where` and the map's range outside it, or if a value is not positive.
     Properties at(double thickness_m, const std::string &mass_column, const std::string &where) const;
 

@@ -41,6 +41,7 @@ namespace rectify::stiffness
     std::string header;
     for (const auto &c : columns)
       header += (header.empty() ? "" : ",") + c;
+    fingerprint["columns"] = header; // a checkpoint of an earlier version's columns is refused, not misread
     ensure_directory(dir);
     Checkpoint                            checkpoint(dir, "map-partial", fingerprint, header);
     std::map<double, std::vector<double>> done;
@@ -70,13 +71,17 @@ namespace rectify::stiffness
                                       fluid.modal_mass_kg,
                                       fluid.eq321_mass_kg,
                                       fluid.eq321_frequency_Hz,
+                                      r.root_stress_per_opening_Pa_per_m,
+                                      r.root_stress_beam_per_opening_Pa_per_m,
+                                      r.root_stress_concentration,
+                                      r.second_mode_root_stress_per_opening_Pa_per_m,
                                       static_cast<double>(r.n_dofs),
                                       r.wall_time_s};
         checkpoint.append(csv_row(row));
         done[t] = row;
-        char what[128];
-        std::snprintf(what, sizeof(what), "t = %.4g m: k = %.5g N/m, f1 = %.5g Hz, %.1f s", t, r.k_N_per_m, row[2],
-                      r.wall_time_s);
+        char what[192];
+        std::snprintf(what, sizeof(what), "t = %.4g m: k = %.5g N/m, f1 = %.5g Hz, root stress %.4g MPa/um, %.1f s", t,
+                      r.k_N_per_m, row[2], r.root_stress_per_opening_Pa_per_m * 1e-12, r.wall_time_s);
         progress.step(what);
       }
 
@@ -84,7 +89,7 @@ namespace rectify::stiffness
     for (double t : thicknesses)
       rows.push_back(done.at(t));
     nlohmann::json meta = fingerprint;
-    meta["quantity"]    = "reed stiffness, first mode and masses vs thickness";
+    meta["quantity"]    = "reed stiffness, first mode, masses and root stress vs thickness";
     meta["written_by"]  = std::string("rectify ") + RECTIFY_VERSION;
     // log-log slope of k(t) by least squares
     double       sx = 0, sy = 0, sxx = 0, sxy = 0;

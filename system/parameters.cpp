@@ -93,9 +93,19 @@ namespace rectify::system
         const auto path = f.resolve(map);
         require_existing(f, t, "properties_map", path, false, "rectify map-stiffness");
         const auto at   = maps::ReedMap::read(path).at(thickness, mass_column, f.where(t, "properties_thickness_m"));
+        if (!at.has_stress())
+          throw InputError(f.where(t, "properties_map") + " = \"" + map +
+                           "\": the reed map has no root_stress_per_opening_Pa_per_m column: it gives the reed's "
+                           "stiffness and mass but not its root stress, which the run's Goodman factor needs; "
+                           "rebuild it with this version's rectify map-stiffness");
         p.stiffness_N_per_m = at.stiffness_N_per_m;
         p.effective_mass_kg = at.mass_kg;
         p.source = path.string() + " at " + format_number(thickness) + " m (" + mass_column + ")";
+        p.root_stress_per_opening_Pa_per_m             = at.root_stress_per_opening_Pa_per_m;
+        p.second_mode_root_stress_per_opening_Pa_per_m = at.second_mode_root_stress_per_opening_Pa_per_m;
+        p.stress_source = "FE root stress of reed map " + path.string() + " at " + format_number(thickness) +
+                          " m (width mean; its corners " + format_number(at.root_stress_concentration) +
+                          " x that, four thicknesses off the clamp)";
       }
     else if (f.has(t, "properties_thickness_m"))
       throw InputError(f.where(t, "properties_thickness_m") + ": read only with properties_map (the "
@@ -351,12 +361,15 @@ namespace rectify::system
       p.reed.stop_lift_m    = geometry.stop_lift_m();
       const double ratio    = f.real("stiffness", "max_linear_deflection_ratio", 0.1, Bounds::open(0.0, 1.0));
       p.reed.large_deflection_opening_m = ratio * geometry.reed_length_m;
-      const auto [s1, s2]   = beam_root_stress_per_opening(geometry, p.material);
-      p.reed.root_stress_per_opening_Pa_per_m             = s1;
-      p.reed.second_mode_root_stress_per_opening_Pa_per_m = s2;
-      p.reed.stress_source = std::string("beam theory of [geometry]'s reed (a uniform cantilever, loaded at its ") +
-                             (geometry.is_shorthand() ? "port's centre)" : "first port's centre: approximate for "
-                                                                            "this outline)");
+      if (p.reed.stress_source.empty()) // not a reed map's FE stress
+        {
+          const auto [s1, s2] = beam_root_stress_per_opening(geometry, p.material);
+          p.reed.root_stress_per_opening_Pa_per_m             = s1;
+          p.reed.second_mode_root_stress_per_opening_Pa_per_m = s2;
+          p.reed.stress_source =
+            std::string("beam theory of [geometry]'s reed (a uniform cantilever, loaded at its ") +
+            (geometry.is_shorthand() ? "port's centre)" : "first port's centre: approximate for this outline)");
+        }
       if (!f.has("reed", "film_cavitation_pressure_Pa"))
         p.reed.film_cavitation_pressure_Pa = p.fluid.cavitation_pressure_Pa;
     }

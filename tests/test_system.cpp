@@ -270,13 +270,15 @@ TEST(Model, DerivedConstantsReproduceTableA1)
 
 TEST(Parameters, ReedPropertiesComeFromAReedMapByThickness)
 {
-  // The map `rectify map-stiffness` writes feeds the system model: k_r and
-  // m_r interpolated linearly in thickness.
+  // The map `rectify map-stiffness` writes feeds the system model: k_r, m_r
+  // and the root stress interpolated linearly in thickness.
   const auto dir = std::filesystem::temp_directory_path() / "rectify_test_reedmap";
   std::filesystem::create_directories(dir);
   write_file_atomic(dir / "reed-map.csv",
-                    "# meta: {}\nthickness_m,stiffness_N_per_m,effective_mass_eq321_kg,modal_mass_in_fluid_kg\n"
-                    "1e-4,3000,3e-4,2e-5\n2e-4,24000,4e-4,3e-5\n");
+                    "# meta: {}\nthickness_m,stiffness_N_per_m,effective_mass_eq321_kg,modal_mass_in_fluid_kg,"
+                    "root_stress_per_opening_Pa_per_m,root_stress_concentration,"
+                    "second_mode_root_stress_per_opening_Pa_per_m\n"
+                    "1e-4,3000,3e-4,2e-5,1.2e12,1.06,-6e12\n2e-4,24000,4e-4,3e-5,2.4e12,1.08,-12e12\n");
   const auto read = [&](const std::string &extra) {
     return ReedParameters::from_case(CaseFile::parse(
       "[reed]\nproperties_map = \"reed-map.csv\"\n" + extra, "r.toml", dir));
@@ -285,6 +287,30 @@ TEST(Parameters, ReedPropertiesComeFromAReedMapByThickness)
   EXPECT_NEAR(p.stiffness_N_per_m, 13500, 1e-9);
   EXPECT_NEAR(p.effective_mass_kg, 3.5e-4, 1e-15);
   EXPECT_NE(p.source.find("reed-map.csv"), std::string::npos);
+  EXPECT_NEAR(p.root_stress_per_opening_Pa_per_m, 1.8e12, 1.8e12 * 1e-12);
+  EXPECT_NEAR(p.second_mode_root_stress_per_opening_Pa_per_m, -9e12, 9e12 * 1e-12);
+  EXPECT_NE(p.stress_source.find("reed map"), std::string::npos) << p.stress_source;
+  EXPECT_NE(p.stress_source.find("1.07 x"), std::string::npos) << p.stress_source;
+  // Taken into the whole model (not replaced by [geometry]'s beam theory).
+  const auto whole = SystemParameters::from_case(
+    CaseFile::parse("[reed]\nproperties_map = \"reed-map.csv\"\nproperties_thickness_m = 1.5e-4\n", "r.toml", dir));
+  EXPECT_NEAR(whole.reed.root_stress_per_opening_Pa_per_m, 1.8e12, 1.8e12 * 1e-12);
+  // A map without the stress (an earlier version's, or one written by hand)
+  // is refused: the Goodman factor needs it.
+  write_file_atomic(dir / "old-map.csv", "# meta: {}\nthickness_m,stiffness_N_per_m,effective_mass_eq321_kg\n"
+                                         "1e-4,3000,3e-4\n2e-4,24000,4e-4\n");
+  try
+    {
+      ReedParameters::from_case(CaseFile::parse(
+        "[reed]\nproperties_map = \"old-map.csv\"\nproperties_thickness_m = 1.5e-4\n", "r.toml", dir));
+      ADD_FAILURE() << "a reed map without the root stress was accepted";
+    }
+  catch (const InputError &e)
+    {
+      for (const char *part : {"r.toml", "[reed] properties_map", "old-map.csv", "root_stress_per_opening_Pa_per_m",
+                               "map-stiffness"})
+        EXPECT_NE(std::string(e.what()).find(part), std::string::npos) << part << " not in: " << e.what();
+    }
   EXPECT_NEAR(read("properties_thickness_m = 1e-4\nproperties_mass = \"modal-in-fluid\"\n").effective_mass_kg,
               2e-5, 1e-15);
   EXPECT_THROW(read("properties_thickness_m = 3e-4\n"), InputError);
