@@ -77,9 +77,15 @@ namespace rectify::stiffness
       void compute_modes();
       void sample_shape();
       void output_results() const;
+      void check_large_deflection(double opening_m, double unloaded_to_m);
+      double assemble_large_deflection(const Vector<double> &u, double level, SparseMatrix<double> &tangent,
+                                       Vector<double> &residual) const;
+      unsigned newton(Vector<double> &u, double level, SparseMatrix<double> &tangent) const;
 
       double tip_face_integral(const Vector<double> &u, bool antisymmetric) const;
-      RootStress root_stress(const Vector<double> &u, double fit_to_m) const;
+      /// `green`: the stress from the Green-Lagrange strain (second
+      /// Piola-Kirchhoff) for a large-deflection solution.
+      RootStress root_stress(const Vector<double> &u, double fit_to_m, bool green = false) const;
       double value_z(const Vector<double> &u, const Point<dim> &p) const;
 
       void make_outline_grid();
@@ -417,7 +423,7 @@ namespace rectify::stiffness
     // a moment linear or quadratic in x whatever the width does. The first
     // station's peak principal stress over its mean sigma_xx is the corners'
     // concentration there.
-    RootStress ReedElasticity::root_stress(const Vector<double> &u, double fit_to_m) const
+    RootStress ReedElasticity::root_stress(const Vector<double> &u, double fit_to_m, bool green) const
     {
       const double E = p_.material.youngs_modulus_Pa, nu = p_.material.poisson_ratio;
       const double lambda = E * nu / ((1 + nu) * (1 - 2 * nu)), mu = E / (2 * (1 + nu));
@@ -427,7 +433,12 @@ namespace rectify::stiffness
         SymmetricTensor<2, dim> strain;
         for (unsigned i = 0; i < dim; ++i)
           for (unsigned j = i; j < dim; ++j)
-            strain[i][j] = 0.5 * (grad[i][j] + grad[j][i]);
+            {
+              strain[i][j] = 0.5 * (grad[i][j] + grad[j][i]);
+              if (green) // Green-Lagrange: blind to the section's rotation
+                for (unsigned k = 0; k < dim; ++k)
+                  strain[i][j] += 0.5 * grad[k][i] * grad[k][j];
+            }
         return SymmetricTensor<2, dim>(lambda * trace(strain) * unit_symmetric_tensor<dim>() + 2 * mu * strain);
       };
       const double x_from = 4 * t_;
@@ -556,6 +567,161 @@ namespace rectify::stiffness
         }
     }
 
+    // Geometrically nonlinear elasticity (St Venant-Kirchhoff, total
+    // Lagrangian): F = I + grad u, E = (F^T F - I) / 2, S = lambda tr(E) I +
+    // 2 mu E; the residual int P : grad v - level (t_N, v) with P = F S, and
+    // its tangent int C[sym(F^T grad du)] : sym(F^T grad v) + S : (grad du^T
+    // grad v). The load is the linear solve's, dead (it keeps its direction).
+    // Returns the residual's norm.
+    double ReedElasticity::assemble_large_deflection(const Vector<double> &u, double level,
+                                                     SparseMatrix<double> &tangent, Vector<double> &residual) const
+    {
+      const double E = p_.material.youngs_modulus_Pa, nu = p_.material.poisson_ratio;
+      const double lambda = E * nu / ((1 + nu) * (1 - 2 * nu));
+      const double mu     = E / (2 * (1 + nu));
+      const QGauss<dim> quadrature(fe_.degree + 1);
+      FEValues<dim>     fe_values(fe_, quadrature, update_gradients | update_JxW_values);
+      const unsigned int                   n = fe_.n_dofs_per_cell();
+      FullMatrix<double>                   cell_K(n, n);
+      Vector<double>                       cell_r(n);
+      std::vector<types::global_dof_index> dofs(n);
+      const FEValuesExtractors::Vector     uu(0);
+      std::vector<Tensor<2, dim>>          grad_u(quadrature.size());
+      std::vector<Tensor<2, dim>>          grad(n);
+      std::vector<SymmetricTensor<2, dim>> dE(n);
+      std::vector<Tensor<2, dim>>          grad_S(n);
+      std::vector<double>                  tr_dE(n);
+      tangent  = 0;
+      residual = 0;
+      for (const auto &cell : dof_handler_.active_cell_iterators())
+        {
+          fe_values.reinit(cell);
+          fe_values[uu].get_function_gradients(u, grad_u);
+          cell_K = 0;
+          cell_r = 0;
+          for (unsigned int q = 0; q < quadrature.size(); ++q)
+            {
+              const Tensor<2, dim>          F  = Tensor<2, dim>(unit_symmetric_tensor<dim>()) + grad_u[q];
+              const SymmetricTensor<2, dim> Eg = 0.5 * (symmetrize(transpose(F) * F) - unit_symmetric_tensor<dim>());
+              const SymmetricTensor<2, dim> S  = lambda * trace(Eg) * unit_symmetric_tensor<dim>() + 2 * mu * Eg;
+              const Tensor<2, dim>          P  = F * Tensor<2, dim>(S);
+              const double                  JxW = fe_values.JxW(q);
+              for (unsigned int i = 0; i < n; ++i)
+                {
+                  grad[i]   = fe_values[uu].gradient(i, q);
+                  dE[i]     = symmetrize(transpose(F) * grad[i]);
+                  grad_S[i] = grad[i] * Tensor<2, dim>(S);
+                  tr_dE[i]  = trace(dE[i]);
+                }
+              for (unsigned int i = 0; i < n; ++i)
+                {
+                  cell_r(i) += scalar_product(P, grad[i]) * JxW;
+                  for (unsigned int j = 0; j <= i; ++j)
+                    cell_K(i, j) += (lambda * tr_dE[i] * tr_dE[j] + 2 * mu * (dE[i] * dE[j]) +
+                                     scalar_product(grad_S[j], grad[i])) *
+                                    JxW;
+                }
+            }
+          for (unsigned int i = 0; i < n; ++i)
+            for (unsigned int j = i + 1; j < n; ++j)
+              cell_K(i, j) = cell_K(j, i);
+          cell->get_dof_indices(dofs);
+          constraints_.distribute_local_to_global(cell_K, cell_r, dofs, tangent, residual);
+        }
+      residual.add(-level, load_);
+      return residual.l2_norm();
+    }
+
+    /// Newton's method from `u` to equilibrium under `level` x the unit load
+    /// (residual down to 1e-8 of the load's); returns its iterations.
+    unsigned ReedElasticity::newton(Vector<double> &u, double level, SparseMatrix<double> &tangent) const
+    {
+      Vector<double> residual(u.size()), du(u.size());
+      const double   scale = std::abs(level) * load_.l2_norm();
+      for (unsigned it = 0; it < 30; ++it)
+        {
+          const double norm = assemble_large_deflection(u, level, tangent, residual);
+          if (!std::isfinite(norm))
+            break;
+          if (norm <= 1e-8 * scale) // the internal forces' rounding: about 4e-9 of the load on a thin strip
+            return it;
+          SparseDirectUMFPACK inverse;
+          inverse.initialize(tangent);
+          inverse.vmult(du, residual);
+          constraints_.distribute(du);
+          u -= du;
+        }
+      throw std::runtime_error("the reed's large-deflection check (geometrically nonlinear solve) did not converge "
+                               "at load level " + format_number(level));
+    }
+
+    // Load steps up to the linear solve's load for the opening, then secant
+    // steps on the level until the mean tip deflection is the opening to 1e-6.
+    void ReedElasticity::check_large_deflection(double opening_m, double unloaded_to_m)
+    {
+      const double tip_per_level = tip_face_integral(solution_, false);
+      SparseMatrix<double> tangent(sparsity_);
+      LargeDeflectionCheck c;
+      // Each step starts from the last two solutions extrapolated to its level
+      // (the first from the linear solution): Newton then needs 2-4 iterations.
+      Vector<double> u(dof_handler_.n_dofs()), u_previous(dof_handler_.n_dofs()), u_start(dof_handler_.n_dofs());
+      double         level_reached = 0, level_previous = 0;
+      const auto     step_to = [&](double level) {
+        if (level_reached == 0)
+          u_start.equ(level, solution_);
+        else
+          {
+            u_start = u;
+            u_start.add((level - level_reached) / (level_reached - level_previous), u);
+            u_start.add(-(level - level_reached) / (level_reached - level_previous), u_previous);
+          }
+        u_previous = u;
+        u          = u_start;
+        c.newton_iterations += newton(u, level, tangent);
+        level_previous = level_reached, level_reached = level;
+        ++c.load_steps;
+      };
+      double         level = opening_m / tip_per_level;
+      const unsigned steps = std::max(2u, static_cast<unsigned>(std::ceil(5 * opening_m / L_)));
+      for (unsigned k = 1; k <= steps; ++k)
+        step_to(level * k / steps);
+      // the secant through the last two (level, opening) pairs
+      double previous = tip_face_integral(u_previous, false);
+      for (unsigned k = 0; k < 20; ++k)
+        {
+          const double reached = tip_face_integral(u, false);
+          if (std::abs(reached / opening_m - 1) <= 1e-6)
+            break;
+          const double slope = (reached - previous) / (level_reached - level_previous);
+          previous = reached;
+          step_to(level_reached + (opening_m - reached) / slope);
+        }
+      level = level_reached;
+      c.opening_m                = tip_face_integral(u, false);
+      c.force_N                  = level * result_.force_per_level;
+      c.secant_stiffness_N_per_m = c.force_N / c.opening_m;
+      c.stiffness_ratio          = c.secant_stiffness_N_per_m / result_.k_N_per_m;
+      c.root_stress_Pa           = root_stress(u, unloaded_to_m, true).mean_Pa;
+      c.root_stress_ratio        = c.root_stress_Pa / (result_.root_stress_per_opening_Pa_per_m * c.opening_m);
+      // the tip face's mean displacement along x (negative: towards the clamp)
+      const QGauss<dim - 1>            quadrature(fe_.degree + 1);
+      FEFaceValues<dim>                values(fe_, quadrature, update_values | update_JxW_values);
+      const FEValuesExtractors::Scalar ux(0);
+      std::vector<double>              ux_q(quadrature.size());
+      double                           shortening = 0;
+      for (const auto &cell : dof_handler_.active_cell_iterators())
+        for (const auto f : cell->face_indices())
+          if (cell->face(f)->at_boundary() && cell->face(f)->boundary_id() == 1)
+            {
+              values.reinit(cell, f);
+              values[ux].get_function_values(u, ux_q);
+              for (unsigned int q = 0; q < quadrature.size(); ++q)
+                shortening -= ux_q[q] * values.JxW(q);
+            }
+      c.tip_shortening_m        = shortening / tip_area_;
+      result_.large_deflection = c;
+    }
+
     void ReedElasticity::output_results() const
     {
       if (options_.vtu_file.empty())
@@ -634,6 +800,11 @@ namespace rectify::stiffness
       result_.root_stress_beam_per_opening_Pa_per_m = p_.settings.load == Load::port_pressure ? 3 * E * t_ / (a * (3 * L_ - a)) :
                                                       p_.settings.load == Load::tip_line      ? 1.5 * E * t_ / (L_ * L_) :
                                                                                                 2 * E * t_ / (L_ * L_);
+      if (options_.large_deflection_opening_m > 0)
+        {
+          check_large_deflection(options_.large_deflection_opening_m, unloaded_to);
+          phase("large-deflection check");
+        }
       if (options_.compute_modes)
         compute_modes();
       phase("modes");

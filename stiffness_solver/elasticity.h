@@ -5,6 +5,7 @@
 #pragma once
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -30,6 +31,22 @@ namespace rectify::stiffness
     double      modal_mass_kg; ///< phi^T M phi with the tip's mean deflection 1 (bending modes)
   };
 
+  /// The reed bent to a given mean tip opening by a geometrically nonlinear
+  /// solve (St Venant-Kirchhoff, total Lagrangian: large rotations, small
+  /// strains) under the same dead load as the linear one, beside the linear
+  /// solve's answer for the same opening.
+  struct LargeDeflectionCheck
+  {
+    double   opening_m = 0;                ///< the mean tip deflection reached
+    double   force_N   = 0;                ///< the load's resultant that bends it there
+    double   secant_stiffness_N_per_m = 0; ///< force / opening
+    double   stiffness_ratio          = 0; ///< secant stiffness over the linear k_N_per_m
+    double   root_stress_Pa           = 0; ///< the root's width-mean bending stress there
+    double   root_stress_ratio        = 0; ///< over the linear root_stress_per_opening x opening
+    double   tip_shortening_m         = 0; ///< the tip's mean displacement towards the clamp
+    unsigned load_steps = 0, newton_iterations = 0;
+  };
+
   struct StiffnessResult
   {
     std::size_t n_dofs = 0, n_cells = 0;
@@ -53,6 +70,8 @@ namespace rectify::stiffness
     /// deflection: s from the clamp, phi averaged across the width, and on the
     /// centre line. phi(0) = 0, phi(L) = 1.
     std::vector<double> shape_s_m, shape_phi, shape_phi_centerline;
+    /// With SolveOptions::large_deflection_opening_m > 0.
+    std::optional<LargeDeflectionCheck> large_deflection;
     double      wall_time_s = 0;
     /// Wall time of each phase [s], in order: for benchmarks.
     std::vector<std::pair<std::string, double>> phase_times;
@@ -63,6 +82,9 @@ namespace rectify::stiffness
     bool                  compute_modes = true;
     std::filesystem::path vtu_file; ///< empty: no VTU
     std::size_t           n_shape_points = 61;
+    /// A mean tip opening [m] at which to check linear elasticity with a
+    /// geometrically nonlinear solve (the reed's stop lift); 0: no check.
+    double                large_deflection_opening_m = 0;
   };
 
   /// Solves the reed. Throws std::runtime_error if a solver fails.

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <utility>
 #include <vector>
 
 #include "common/case_file.h"
@@ -385,4 +386,80 @@ TEST(Stiffness, RootStressPerOpeningMatchesBeamTheoryAndStatics)
   EXPECT_LT(std::abs(fine.root_stress_per_opening_Pa_per_m / fine_statics - 1),
             std::abs(r.root_stress_per_opening_Pa_per_m / statics - 1));
   EXPECT_NEAR(fine.root_stress_concentration / r.root_stress_concentration, 1.0, 0.01);
+}
+
+namespace
+{
+  /// The elastica of a cantilever under a vertical dead tip load: theta'' =
+  /// -alpha cos(theta) on s in [0, 1], theta(0) = 0, theta'(1) = 0, alpha =
+  /// P L^2 / (E I); shooting on theta'(0) (bisection, RK4). Returns the tip's
+  /// (vertical, horizontal) position over L.
+  std::pair<double, double> elastica_tip(double alpha)
+  {
+    const auto shoot = [&](double kappa, double &y, double &x) {
+      const int n = 4000;
+      const double h = 1.0 / n;
+      double theta = 0, omega = kappa;
+      y = x = 0;
+      const auto f = [&](double th, double om, double &dth, double &dom) { dth = om, dom = -alpha * std::cos(th); };
+      for (int k = 0; k < n; ++k)
+        {
+          double a1, b1, a2, b2, a3, b3, a4, b4;
+          f(theta, omega, a1, b1);
+          f(theta + h / 2 * a1, omega + h / 2 * b1, a2, b2);
+          f(theta + h / 2 * a2, omega + h / 2 * b2, a3, b3);
+          f(theta + h * a3, omega + h * b3, a4, b4);
+          // the tip position by Simpson on this step
+          const double t_mid = theta + h / 4 * (a1 + a2) ; // theta at h/2 (second order is enough beside Simpson's)
+          const double t_end = theta + h / 6 * (a1 + 2 * a2 + 2 * a3 + a4);
+          y += h / 6 * (std::sin(theta) + 4 * std::sin(t_mid) + std::sin(t_end));
+          x += h / 6 * (std::cos(theta) + 4 * std::cos(t_mid) + std::cos(t_end));
+          omega += h / 6 * (b1 + 2 * b2 + 2 * b3 + b4);
+          theta = t_end;
+        }
+      return omega; // theta'(1)
+    };
+    double lo = 0, hi = alpha, y = 0, x = 0;
+    for (int k = 0; k < 60; ++k)
+      {
+        const double mid = 0.5 * (lo + hi);
+        (shoot(mid, y, x) > 0 ? hi : lo) = mid;
+      }
+    shoot(0.5 * (lo + hi), y, x);
+    return {y, x};
+  }
+} // namespace
+
+// The large-deflection check against the elastica: a strip under a tip load
+// P = E I / L^2 bends to 0.3017 L, not the linear 1/3 L; its secant
+// stiffness is 1 / (3 x 0.3017) of the linear one, its tip moves 0.0566 L
+// towards the clamp. At 1 % of L the two solves agree.
+TEST(Stiffness, TheLargeDeflectionCheckFollowsTheElastica)
+{
+  const auto [y1, x1] = elastica_tip(1.0);
+  std::printf("elastica, alpha = 1: tip at y = %.5f L, x = %.5f L\n", y1, x1);
+  EXPECT_NEAR(y1, 0.30172, 2e-4); // Bisshopp and Drucker (1945)
+  auto p                        = strip(6.1e-3 / 20, 2);
+  p.settings.cells_along_length = 40;
+  p.settings.n_modes            = 0;
+  const double L                = p.geometry.reed_length_m;
+  SolveOptions o;
+  o.compute_modes              = false;
+  o.large_deflection_opening_m = y1 * L;
+  const auto r = solve_reed(p, o);
+  ASSERT_TRUE(r.large_deflection);
+  const auto &c = *r.large_deflection;
+  std::printf("strip at %.4f L: secant k / linear k = %.5f (elastica %.5f), tip shortening %.5f L (%.5f); "
+              "root stress x%.4f; %u load steps, %u Newton iterations\n",
+              c.opening_m / L, c.stiffness_ratio, 1 / (3 * y1), c.tip_shortening_m / L, 1 - x1,
+              c.root_stress_ratio, c.load_steps, c.newton_iterations);
+  EXPECT_NEAR(c.opening_m / (y1 * L), 1.0, 1e-5);
+  EXPECT_NEAR(c.stiffness_ratio * 3 * y1, 1.0, 0.005);
+  EXPECT_NEAR(c.tip_shortening_m / ((1 - x1) * L), 1.0, 0.03);
+  // the root's moment is P times the shortened arm: x1 of the linear one's per unit force
+  EXPECT_NEAR(c.root_stress_ratio / (c.stiffness_ratio * x1), 1.0, 0.02);
+
+  o.large_deflection_opening_m = 0.01 * L;
+  const auto small = solve_reed(p, o);
+  EXPECT_NEAR(small.large_deflection->stiffness_ratio, 1.0, 2e-3);
 }

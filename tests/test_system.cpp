@@ -670,6 +670,12 @@ TEST(Cli, StiffnessWritesSummaryShapeAndVtu)
                           "frequency_in_fluid_Hz", "n_dofs", "wall_time_s"})
     EXPECT_TRUE(s.contains(key)) << key;
   EXPECT_EQ(s["frequencies_Hz"].size(), 2u);
+  // the reference's stop lift (1.873 mm) is beyond 10 % of L: checked there,
+  // and said on the console
+  ASSERT_TRUE(s["large_deflection_at_stop"].is_object()) << s.dump(1);
+  EXPECT_NEAR(s["large_deflection_at_stop"]["opening_m"].get<double>(), 1.873e-3, 1e-8);
+  EXPECT_GT(s["large_deflection_at_stop"]["stiffness_ratio"].get<double>(), 1.0);
+  EXPECT_NE(r.output.find("at the stop's lift"), std::string::npos) << r.output;
   EXPECT_TRUE(std::filesystem::exists(dir / "out" / "reed.vtu"));
   // the shape table the mesher reads: s from 0 to L, phi from 0 to 1, monotone
   const auto shape = read_csv(dir / "out" / "shape.csv");
