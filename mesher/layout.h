@@ -68,9 +68,7 @@ namespace rectify::mesher::detail
         Ng(s.gap_layers), Nr(s.reed_layers), Na(s.above_layers), N(Ng + Nr + Na)
     {
       const auto &phi = shape.values();
-      j_closed        = 1;
-      while (j_closed + 1 < phi.size() && phi[j_closed] < s.gap_cutoff_ratio)
-        ++j_closed;
+      j_closed        = cutoff_station(shape, s.gap_cutoff_ratio, opening, t);
       x_closed = shape.stations()[j_closed];
       h_cut    = opening * phi[j_closed];
     }

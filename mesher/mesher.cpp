@@ -50,12 +50,12 @@ namespace rectify::mesher
                        " m would push the reed through the pocket ceiling: its tip's top at " +
                        format_number(opening + g.reed_thickness_m) +
                        " m, [geometry] pocket_height_m = " + format_number(g.pocket_height_m));
-    if (opening > parameters.max_opening_m())
+    if (opening > parameters.ceiling_reach_m())
       throw InputError("tip opening = " + format_number(opening) + " m leaves " +
                        format_number(g.pocket_height_m - opening - g.reed_thickness_m) +
                        " m above the reed's tip; the mesher needs 2 x [mesh] min_slab_margin_m = " +
                        format_number(2 * s.min_slab_margin_m) + " m there: it reaches " +
-                       format_number(parameters.max_opening_m()) + " m (lower min_slab_margin_m)");
+                       format_number(parameters.ceiling_reach_m()) + " m (lower min_slab_margin_m)");
 
     // Near the ceiling the slab's margin above the reed shrinks to half the
     // room left, so that TetGen's pocket keeps as much.
@@ -66,7 +66,8 @@ namespace rectify::mesher
     if (lay.h_cut >= 0.9 * lay.t)
       throw InputError("[mesh] gap_cutoff_ratio = " + format_number(s.gap_cutoff_ratio) +
                        ": at tip opening " + format_number(opening) + " m the cut-off gap (" +
-                       format_number(lay.h_cut) + " m) is not thinner than the reed; lower it");
+                       format_number(lay.h_cut) + " m) is not thinner than the reed even at the shape's first "
+                       "station; this reed's mesh reaches " + format_number(parameters.cutoff_reach_m()) + " m");
     for (const auto &port : lay.ports)
       {
         double x_min = port.center_m[0] - 1.01 * 0.5 * port.diameter_m; // a circle's polygon reaches past r

@@ -77,9 +77,37 @@ namespace rectify::mesher
     return std::min(settings.slab_margin_m, 0.5 * room);
   }
 
-  double MeshParameters::max_opening_m() const
+  double MeshParameters::ceiling_reach_m() const
   {
     return geometry.pocket_height_m - geometry.reed_thickness_m - 2.0 * settings.min_slab_margin_m;
+  }
+
+  std::size_t cutoff_station(const SampledShape &shape, double cutoff_ratio, double opening_m, double thickness_m)
+  {
+    const auto &phi = shape.values();
+    std::size_t j   = 1;
+    while (j + 1 < phi.size() && phi[j] < cutoff_ratio)
+      ++j;
+    while (j > 1 && opening_m * phi[j] >= 0.9 * thickness_m)
+      --j;
+    return j;
+  }
+
+  double MeshParameters::cutoff_reach_m() const
+  {
+    return 0.9 * geometry.reed_thickness_m / sampled_shape().values()[1];
+  }
+
+  double MeshParameters::max_opening_m() const { return std::min(ceiling_reach_m(), cutoff_reach_m()); }
+
+  std::string MeshParameters::reach_limit() const
+  {
+    if (ceiling_reach_m() <= cutoff_reach_m())
+      return "the mesher needs 2 x [mesh] min_slab_margin_m between the reed's tip and the pocket's ceiling"
+             " (a smaller min_slab_margin_m reaches further, with thinner cells there)";
+    return "the gap the mesher treats as closed (the opening x the shape at its first station off the clamp) "
+           "must stay below 0.9 of the reed's thickness (" + format_number(geometry.reed_thickness_m) +
+           " m); a finer [mesh] station_spacing_m reaches further";
   }
 
   ReedShape MeshParameters::reed_shape() const

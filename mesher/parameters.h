@@ -61,10 +61,25 @@ namespace rectify::mesher
     /// that is less (never below min_slab_margin_m at openings up to
     /// max_opening_m()).
     double slab_margin_at(double opening_m) const;
-    /// The largest tip opening the mesher reaches: the pocket's height less
-    /// the reed's thickness and 2 x min_slab_margin_m.
+    /// The largest tip opening the mesher reaches: the least of
+    /// ceiling_reach_m() and cutoff_reach_m().
     double max_opening_m() const;
+    /// The pocket's height less the reed's thickness and 2 x min_slab_margin_m.
+    double ceiling_reach_m() const;
+    /// Where the gap treated as closed would reach 0.9 of the reed's
+    /// thickness even at the shape's first station: beyond, the layered gap
+    /// cannot fit under the reed (cutoff_station()).
+    double cutoff_reach_m() const;
+    /// Which of the two limits max_opening_m() and why, for a message.
+    std::string reach_limit() const;
   };
+
+  /// The station of `shape` from which the gap under the reed is meshed
+  /// (nearer the clamp it is treated as closed): the first (after the clamp)
+  /// whose phi is at least `cutoff_ratio`, or nearer the clamp where the gap
+  /// there, `opening_m` x phi, would not stay below 0.9 of the reed's
+  /// `thickness_m` (large openings of thin reeds: the closed part shrinks).
+  std::size_t cutoff_station(const SampledShape &shape, double cutoff_ratio, double opening_m, double thickness_m);
 
   /// The seat film's modal area: the integral of the reed's shape phi (1 at
   /// the tip) over the part of its footprint that lies on the seat, i.e. the

@@ -55,7 +55,9 @@ namespace rectify::stokes
     s.max_openings      = static_cast<unsigned>(f.integer(t, "max_openings", s.max_openings, 3, 1000));
     const auto g     = ValveGeometry::from_case(f);
     s.stop_lift_m    = g.stop_lift_m();
-    s.mesher_reach_m = mesher::MeshParameters::from_case(f).max_opening_m();
+    const auto mesh  = mesher::MeshParameters::from_case(f);
+    s.mesher_reach_m = mesh.max_opening_m();
+    s.reach_limit    = mesh.reach_limit();
     s.to_stop        = !f.has(t, "openings_to_m");
     s.to_m = s.to_stop ? std::min(s.stop_lift_m, s.mesher_reach_m) : f.real(t, "openings_to_m", s.to_m, Bounds::positive());
     if (!(s.to_m > s.from_m))
@@ -73,8 +75,7 @@ namespace rectify::stokes
                        " m: [geometry] stop_height_m less the reed's thickness)");
     if (s.to_m > s.mesher_reach_m)
       throw InputError(f.where(t, "openings_to_m") + " = " + format_number(s.to_m) +
-                       ": beyond the mesher's reach, " + format_number(s.mesher_reach_m) +
-                       " m (the pocket's height less the reed's thickness and 2 x [mesh] min_slab_margin_m)");
+                       ": beyond the mesher's reach, " + format_number(s.mesher_reach_m) + " m: " + s.reach_limit);
     if (s.max_openings < s.initial_openings)
       throw InputError(f.where(t, "max_openings") + " = " + std::to_string(s.max_openings) +
                        ": below initial_openings = " + std::to_string(s.initial_openings));
@@ -94,8 +95,7 @@ namespace rectify::stokes
                       " short of the reed's stop at " + um(stop_lift_m) + ": ";
     if (!to_stop)
       return why + "[design] openings_to_m says so";
-    return why + "the mesher needs 2 x [mesh] min_slab_margin_m between the reed's tip and the pocket's ceiling"
-                 " (a smaller min_slab_margin_m reaches further, with thinner cells there)";
+    return why + reach_limit;
   }
 
   nlohmann::json SweepSettings::to_json() const

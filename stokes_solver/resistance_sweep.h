@@ -32,6 +32,7 @@ namespace rectify::stokes
     /// stop, or short of it by what the mesher cannot reach.
     double   stop_lift_m       = 0;        ///< [geometry]'s stop: the largest opening the reed reaches
     double   mesher_reach_m    = 0;        ///< the largest opening the mesher meshes
+    std::string reach_limit;                ///< what sets it, for a message
     bool     to_stop           = false;    ///< openings_to_m was not given: to the stop (or the mesher's reach)
     /// Why the openings end short of the stop (empty when they reach it).
     std::string short_of_stop() const;

@@ -13,6 +13,8 @@
 #include "common/case_file.h"
 #include "common/io.h"
 #include "maps/map_set.h"
+#include "mesher/mesher.h"
+#include "mesher/parameters.h"
 #include "stokes_solver/resistance_sweep.h"
 #include "tests/cli_helpers.h"
 
@@ -176,6 +178,23 @@ TEST(Design, TheOpeningsRunToTheStopOrSayWhyAndByHowMuchTheyEndShort)
     CaseFile::parse("[geometry]\nstop_height_m = 1.5e-3\n", "guard.toml"));
   EXPECT_NEAR(guarded.to_m, 1.5e-3 - 0.127e-3, 1e-12);
   EXPECT_EQ(guarded.short_of_stop(), "");
+
+  // A thin reed near its stop: the gap treated as closed (gap_cutoff_ratio
+  // x the opening, 5 % of 1.9 mm) would be thicker than the reed (0.9 x 80
+  // um); the closed part shrinks towards the clamp instead, and the mesh
+  // reaches the stop (a what-if's 0.08 mm design failed there).
+  const auto thin = CaseFile::parse("[geometry]\nreed_thickness_m = 0.08e-3\n", "thin.toml");
+  const auto mesh = mesher::MeshParameters::from_case(thin);
+  const auto thin_sweep = stokes::SweepSettings::from_case(thin);
+  EXPECT_GT(mesh.cutoff_reach_m(), mesh.ceiling_reach_m());
+  EXPECT_EQ(thin_sweep.to_m, mesh.ceiling_reach_m());
+  const auto near_stop = mesher::mesh_valve(mesh, thin_sweep.to_m);
+  EXPECT_LT(near_stop.info.cutoff_thickness_m, 0.9 * 0.08e-3);
+  EXPECT_LT(near_stop.info.cutoff_thickness_m, 0.05 * thin_sweep.to_m);
+  EXPECT_GT(near_stop.info.cutoff_thickness_m, 0.0);
+  // at a small opening the ratio's station as before
+  const auto small = mesher::mesh_valve(mesh, 100e-6);
+  EXPECT_GE(small.info.cutoff_thickness_m, 0.05 * 100e-6 * (1 - 1e-12));
 }
 
 TEST(Design, BadDesignSettingsAreRefusedBeforeAnyWork)
