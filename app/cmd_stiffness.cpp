@@ -25,7 +25,6 @@ namespace rectify::app
       std::string out_dir;
     };
 
-
     /// The geometrically nonlinear check at the stop's lift, as summary.json
     /// holds it (null where the lift is within small-deflection theory).
     nlohmann::json large_deflection_json(const StiffnessResult &r, const StiffnessParameters &p)
@@ -33,6 +32,8 @@ namespace rectify::app
       if (!r.large_deflection)
         return nullptr;
       const auto &c = *r.large_deflection;
+      if (!c.failure.empty())
+        return {{"opening_m", c.opening_m}, {"failure", c.failure}};
       return {{"opening_m", c.opening_m},
               {"opening_over_length", c.opening_m / p.geometry.reed_length_m},
               {"force_N", c.force_N},
@@ -55,6 +56,13 @@ namespace rectify::app
       if (!r.large_deflection)
         return;
       const auto &c = *r.large_deflection;
+      if (!c.failure.empty())
+        {
+          std::printf("at the stop's lift %.4g mm, beyond small-deflection theory: no large-deflection check (%s); "
+                      "the linear results there are unchecked\n",
+                      c.opening_m * 1e3, c.failure.c_str());
+          return;
+        }
       std::printf("at the stop's lift %.4g mm (%.2f of L), beyond small-deflection theory: the geometrically "
                   "nonlinear solve needs %.4f x the linear force (secant k %.5g N/m), root stress %.4f x the "
                   "linear, the tip %.3g mm nearer the clamp\n",

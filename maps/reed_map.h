@@ -4,7 +4,7 @@
 //
 // File format (CSV, '#' lines are comments, one '# meta:' JSON line):
 //
-//   # rectify reed map: k_r, f1 and masses vs reed thickness
+//   # rectify reed map: k_r, f1, masses and root stress vs reed thickness
 //   # meta: {...}
 //   thickness_m,stiffness_N_per_m,frequency_Hz,modal_mass_kg,frequency_in_fluid_Hz,
 //     modal_mass_in_fluid_kg,effective_mass_eq321_kg,frequency_eq321_Hz,

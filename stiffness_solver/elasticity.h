@@ -45,6 +45,7 @@ namespace rectify::stiffness
     double   root_stress_ratio        = 0; ///< over the linear root_stress_per_opening x opening
     double   tip_shortening_m         = 0; ///< the tip's mean displacement towards the clamp
     unsigned load_steps = 0, newton_iterations = 0;
+    std::string failure; ///< why the solve did not reach the opening (empty: it did; else only opening_m is set)
   };
 
   struct StiffnessResult

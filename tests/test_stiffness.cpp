@@ -462,4 +462,14 @@ TEST(Stiffness, TheLargeDeflectionCheckFollowsTheElastica)
   o.large_deflection_opening_m = 0.01 * L;
   const auto small = solve_reed(p, o);
   EXPECT_NEAR(small.large_deflection->stiffness_ratio, 1.0, 2e-3);
+  EXPECT_TRUE(small.large_deflection->failure.empty());
+
+  // A tip 1.5 L down is reached only by stretching the strip far beyond
+  // small strains: the check says it has no answer, the linear results stand.
+  o.large_deflection_opening_m = 1.5 * L;
+  const auto beyond = solve_reed(p, o);
+  ASSERT_TRUE(beyond.large_deflection);
+  EXPECT_FALSE(beyond.large_deflection->failure.empty());
+  EXPECT_EQ(beyond.large_deflection->stiffness_ratio, 0.0);
+  EXPECT_EQ(beyond.k_N_per_m, r.k_N_per_m);
 }
