@@ -246,7 +246,12 @@ namespace rectify::design
                         {"n_dofs", p.n_dofs},
                         {"iterations", p.iterations},
                         {"mass_balance_rel_error", p.mass_balance_rel_error},
-                        {"wall_time_s", p.wall_time_s}});
+                        {"wall_time_s", p.wall_time_s},
+                        {"mesh_time_s", p.mesh_time_s},
+                        {"setup_time_s", p.setup_time_s},
+                        {"assembly_time_s", p.assembly_time_s},
+                        {"solve_time_s", p.solve_time_s},
+                        {"loading_time_s", p.loading_time_s}});
     nlohmann::json manifest = {
       {"source", "rectify design: Stokes flow (deal.II, P2-P1) on meshes of the FE reed shape; 3D elasticity"},
       {"rectify_version", RECTIFY_VERSION},

@@ -18,7 +18,7 @@ namespace rectify::stokes
     std::string solver             = "auto";    ///< "direct" (MUMPS), "iterative" (FGMRES + AMG/Schur), "auto"
     long        direct_max_dofs    = 150000;    ///< "auto": direct up to this many unknowns
     std::string schur              = "gap";     ///< Schur complement preconditioner: "gap" (mass + thin-gap Laplacian) or "mass"
-    double      tolerance          = 1e-11;     ///< relative residual of the iterative solver (mass balance ~1e-9)
+    double      tolerance          = 1e-9;      ///< relative residual of the iterative solver (R and A_eff to ~1e-7, mass balance ~1e-8)
     long        max_iterations     = 2000;
     /// "solve": the resistance sweeps also solve the reed's fluid loading at
     /// every opening (FluidLoading: a second solve on the same matrix and

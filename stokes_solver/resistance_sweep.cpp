@@ -7,6 +7,9 @@
 #include <set>
 #include <memory>
 #include <mutex>
+#include <stdexcept>
+
+#include <mpi.h>
 
 #include "common/checkpoint.h"
 #include "common/io.h"
@@ -25,7 +28,7 @@ namespace rectify::stokes
       "reynolds_gap_exit", "mass_balance_rel_error", "n_dofs",                    "iterations",
       "wall_time_s",      "R_energy_Pa_s_per_m3",   "dp_per_tip_velocity_Pa_s_per_m", "force_per_flow_Pa_s_per_m",
       "damping_N_s_per_m", "damping_fixed_dp_N_s_per_m", "A_modal_m2", "loading_asymmetry", "added_mass_kg",
-      "swept_area_m2",    "loading_time_s"};
+      "swept_area_m2",    "loading_time_s", "mesh_time_s", "setup_time_s", "assembly_time_s", "solve_time_s"};
     return c;
   }
 
@@ -35,7 +38,8 @@ namespace rectify::stokes
             pressure_drop_Pa,  R_thin_gap_Pa_s_per_m3, reynolds_port,             reynolds_gap_exit,
             mass_balance_rel_error, n_dofs,            iterations,                wall_time_s,
             R_energy_Pa_s_per_m3, dp_per_tip_velocity_Pa_s_per_m, force_per_flow_Pa_s_per_m, damping_N_s_per_m,
-            damping_fixed_dp_N_s_per_m, A_modal_m2, loading_asymmetry, added_mass_kg, swept_area_m2, loading_time_s};
+            damping_fixed_dp_N_s_per_m, A_modal_m2, loading_asymmetry, added_mass_kg, swept_area_m2, loading_time_s,
+            mesh_time_s, setup_time_s, assembly_time_s, solve_time_s};
   }
 
   OpeningPoint OpeningPoint::from_row(const std::vector<double> &r)
@@ -49,6 +53,7 @@ namespace rectify::stokes
     p.force_per_flow_Pa_s_per_m = r.at(15), p.damping_N_s_per_m = r.at(16), p.damping_fixed_dp_N_s_per_m = r.at(17);
     p.A_modal_m2 = r.at(18), p.loading_asymmetry = r.at(19), p.added_mass_kg = r.at(20), p.swept_area_m2 = r.at(21);
     p.loading_time_s = r.at(22);
+    p.mesh_time_s = r.at(23), p.setup_time_s = r.at(24), p.assembly_time_s = r.at(25), p.solve_time_s = r.at(26);
     return p;
   }
 
@@ -156,6 +161,10 @@ namespace rectify::stokes
     p.n_dofs                 = static_cast<double>(r.n_dofs);
     p.iterations             = r.iterations;
     p.wall_time_s            = r.wall_time_s;
+    p.mesh_time_s            = valve.info.wall_time_s;
+    p.setup_time_s           = r.setup_time_s;
+    p.assembly_time_s        = r.assembly_time_s;
+    p.solve_time_s           = r.solve_time_s;
     if (loading)
       {
         const auto &l                    = r.loading;
@@ -213,16 +222,51 @@ namespace rectify::stokes
         progress_  = std::make_unique<Progress>(label, n_planned, 0, !root_);
       }
 
-      const OpeningPoint &get(double x)
+      /// All of `openings`: those not in the checkpoint solved one per
+      /// process while there are at least as many as processes (independent
+      /// solves scale; one solve split over two ranks is bandwidth-bound),
+      /// the rest on all processes together. Each wave's results reach
+      /// every process and the checkpoint before the next wave starts.
+      const std::map<double, OpeningPoint> &solve_all(const std::vector<double> &openings)
       {
-        if (const auto it = done_.find(x); it != done_.end())
+        std::vector<double> todo;
+        for (double x : openings)
+          if (done_.count(x) == 0 && std::find(todo.begin(), todo.end(), x) == todo.end())
+            todo.push_back(x);
+          else if (done_.count(x) != 0)
+            reuse();
+        const std::size_t n = mpi_.size();
+        std::size_t       next = 0;
+        for (; n > 1 && todo.size() - next >= n; next += n)
           {
-            if (root_)
-              progress_->skip();
-            ++n_reused_;
-            return it->second;
+            const std::vector<double> wave(todo.begin() + static_cast<long>(next),
+                                           todo.begin() + static_cast<long>(next + n));
+            const auto [points, error] = solve_one_each(wave);
+            for (const auto &p : points)
+              record(p); // what the wave finished stays in the checkpoint
+            if (!error.empty())
+              throw std::runtime_error(error);
           }
-        const OpeningPoint p = solve_opening(mp_, fp_, x, mpi_);
+        for (; next < todo.size(); ++next)
+          record(solve_opening(mp_, fp_, todo[next], mpi_));
+        return done_;
+      }
+
+      void        extend(std::size_t more) { progress_->extend(more); }
+      std::size_t n_reused() const { return n_reused_; } ///< openings taken from the checkpoint so far
+
+    private:
+      void reuse()
+      {
+        if (root_)
+          progress_->skip();
+        ++n_reused_;
+      }
+
+      /// Checks a solved opening, appends it to the checkpoint and reports it.
+      void record(const OpeningPoint &p)
+      {
+        const double x = p.opening_m;
         if (!(p.R_Pa_s_per_m3 > 0) || !(p.A_eff_m2 > 0))
           throw std::runtime_error("the Stokes solution at " + format_number(x) + " m gives R = " +
                                    format_number(p.R_Pa_s_per_m3) + ", A_eff = " + format_number(p.A_eff_m2));
@@ -234,13 +278,48 @@ namespace rectify::stokes
                           x * 1e6, p.R_Pa_s_per_m3, p.A_eff_m2 * 1e6, p.n_dofs, p.wall_time_s);
             progress_->step(what);
           }
-        return done_[x] = p;
+        done_[x] = p;
       }
 
-      void        extend(std::size_t more) { progress_->extend(more); }
-      std::size_t n_reused() const { return n_reused_; } ///< openings taken from the checkpoint so far
+      /// wave[r] solved on process r alone; every process gets all that
+      /// succeeded and the first failure's message (empty if none).
+      std::pair<std::vector<OpeningPoint>, std::string> solve_one_each(const std::vector<double> &wave) const
+      {
+        const auto          columns = OpeningPoint::columns().size();
+        std::vector<double> mine(columns, 0.0);
+        std::string         error;
+        try
+          {
+            mine = solve_opening(mp_, fp_, wave[mpi_.rank()], MpiSession::on(MPI_COMM_SELF)).row();
+          }
+        catch (const std::exception &e)
+          {
+            error = e.what();
+          }
+        constexpr std::size_t message = 1000;
+        error.resize(message, '\0');
+        std::vector<double> rows(columns * wave.size());
+        std::string         errors(message * wave.size(), '\0');
+        MPI_Allgather(mine.data(), static_cast<int>(columns), MPI_DOUBLE, rows.data(), static_cast<int>(columns),
+                      MPI_DOUBLE, mpi_.comm());
+        MPI_Allgather(error.data(), static_cast<int>(message), MPI_CHAR, errors.data(), static_cast<int>(message),
+                      MPI_CHAR, mpi_.comm());
+        std::vector<OpeningPoint> points;
+        std::string               first_error;
+        for (std::size_t r = 0; r < wave.size(); ++r)
+          {
+            if (errors[r * message] != '\0')
+              {
+                if (first_error.empty())
+                  first_error = errors.substr(r * message, message).c_str();
+                continue;
+              }
+            points.push_back(OpeningPoint::from_row(
+              {rows.begin() + static_cast<long>(r * columns), rows.begin() + static_cast<long>((r + 1) * columns)}));
+          }
+        return {points, first_error};
+      }
 
-    private:
       const mesher::MeshParameters  &mp_;
       const FlowParameters          &fp_;
       const MpiSession              &mpi_;
@@ -259,8 +338,9 @@ namespace rectify::stokes
   {
     CheckpointedOpenings      solver(mp, fp, dir, "map-partial", fingerprint, mpi, "map-resistance", openings.size());
     std::vector<OpeningPoint> points;
+    const auto               &all = solver.solve_all(openings);
     for (double x : openings)
-      points.push_back(solver.get(x));
+      points.push_back(all.at(x));
     if (n_resumed != nullptr)
       *n_resumed = solver.n_reused();
     return points;
@@ -381,8 +461,9 @@ namespace rectify::stokes
           }
         if (!first)
           solver.extend(plan.missing.size());
+        const auto &all = solver.solve_all(plan.missing);
         for (double x : plan.missing)
-          solved[x] = solver.get(x);
+          solved[x] = all.at(x);
       }
   }
 } // namespace rectify::stokes

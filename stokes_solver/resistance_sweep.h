@@ -64,6 +64,10 @@ namespace rectify::stokes
     double added_mass_kg = 0;
     double swept_area_m2 = 0;              ///< the volume the reed sweeps per unit tip travel
     double loading_time_s = 0;
+    /// Where an opening's time went: meshing, the flow's set-up (DoFs,
+    /// constraints, sparsity), assembly, the linear solves (preconditioner
+    /// set-up included); wall_time_s is the flow's whole, meshing excluded.
+    double mesh_time_s = 0, setup_time_s = 0, assembly_time_s = 0, solve_time_s = 0;
     bool   has_loading() const { return damping_N_s_per_m > 0; }
     static const std::vector<std::string> &columns();
     std::vector<double> row() const;

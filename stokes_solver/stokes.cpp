@@ -58,6 +58,7 @@
 
 #include "mesher/to_dealii.h"
 #include "stokes_solver/block_solver.h"
+#include "stokes_solver/wall_distance.h"
 #include "stokes_solver/duct_profile.h"
 #include "stokes_solver/potential_flow.h"
 
@@ -488,7 +489,7 @@ namespace rectify::stokes
       std::unique_ptr<PETScWrappers::SparseDirectMUMPS> mumps_;
       bool                      direct_ = false, gap_schur_ = false;
       std::unique_ptr<GapHeights> gap_heights_;
-      double                    wide_weight_ = 0; ///< the gap Laplacian's weight outside the gap
+      std::unique_ptr<WallDistance> wall_distance_; ///< the channel width outside the gap
       /// The pressure unknown is p / sigma and the continuity equation is
       /// multiplied by sigma = mu / (mean cell size): both blocks of the
       /// matrix then have the same scale, and the solver's residual weighs
@@ -670,12 +671,8 @@ namespace rectify::stokes
           for (const auto &[i, v] : outlet_values)
             outlet_pressure_.add_line(i);
           outlet_pressure_.close();
-          gap_heights_ = std::make_unique<GapHeights>(mesh_);
-          Point<3> lo(mesh_.vertices[0][0], mesh_.vertices[0][1], mesh_.vertices[0][2]), hi = lo;
-          for (const auto &v : mesh_.vertices)
-            for (int d = 0; d < 3; ++d)
-              lo[d] = std::min(lo[d], v[d]), hi[d] = std::max(hi[d], v[d]);
-          wide_weight_ = lo.distance_square(hi) / mu_;
+          gap_heights_   = std::make_unique<GapHeights>(mesh_);
+          wall_distance_ = std::make_unique<WallDistance>(mesh_);
         }
       system_rhs_.reinit(owned_, comm_);
       solution_.reinit(owned_, comm_);
@@ -788,8 +785,18 @@ namespace rectify::stokes
             double gap_weight = 0;
             if (with_gap_laplace)
               {
+                // Outside the gap, d^2 with d the distance to the nearest
+                // wall: averaged over a plane channel's width w it is w^2/12,
+                // the gap's weight; over a round pipe's radius a, a^2/6 (a^2/8
+                // exactly).
                 const double h = cell->material_id() == mesher::gap ? gap_heights_->of(cell) : 0.0;
-                gap_weight     = sigma_ * sigma_ * (h > 0 ? h * h / (12 * mu_) : wide_weight_);
+                double       k = h * h / 12;
+                if (!(h > 0))
+                  {
+                    const auto c = cell->center();
+                    k            = std::pow((*wall_distance_)({c[0], c[1], c[2]}), 2);
+                  }
+                gap_weight = sigma_ * sigma_ * k / mu_;
               }
             for (unsigned q = 0; q < fe_values.n_quadrature_points; ++q)
               {
