@@ -50,8 +50,13 @@ namespace rectify
             if (first)
               {
                 first = false;
-                if (line == header)
-                  continue;
+                // Another version's columns (same settings) cannot be resumed:
+                // its rows would be read as these columns.
+                if (line != header)
+                  throw InputError("'" + csv.string() + "' holds a partial run with other columns (written by " +
+                                   "another version of rectify?); choose another --out, or delete its " + name +
+                                   ".* files");
+                continue;
               }
             if (complete && !line.empty())
               {

@@ -231,10 +231,10 @@ namespace rectify::stokes
       {
         std::vector<double> todo;
         for (double x : openings)
-          if (done_.count(x) == 0 && std::find(todo.begin(), todo.end(), x) == todo.end())
-            todo.push_back(x);
-          else if (done_.count(x) != 0)
+          if (done_.count(x) != 0)
             reuse();
+          else if (std::find(todo.begin(), todo.end(), x) == todo.end())
+            todo.push_back(x);
         const std::size_t n = mpi_.size();
         std::size_t       next = 0;
         for (; n > 1 && todo.size() - next >= n; next += n)

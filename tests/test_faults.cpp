@@ -396,6 +396,26 @@ TEST(Faults, ACheckpointRowCutOffIsDroppedNotJoinedToTheNext)
   EXPECT_EQ(slurp(dir / "x.csv"), "p,q\n1,2\n5,6\n");
 }
 
+TEST(Faults, ACheckpointOfOtherColumnsIsRefusedNotReadAsThese)
+{
+  const auto dir = scratch("faults_checkpoint_columns");
+  {
+    Checkpoint c(dir, "x", {{"a", 1}}, "p,q");
+    c.append("1,2");
+  }
+  try
+    {
+      Checkpoint c(dir, "x", {{"a", 1}}, "p,q,r");
+      FAIL() << "a checkpoint of other columns was opened";
+    }
+  catch (const InputError &e)
+    {
+      EXPECT_NE(std::string(e.what()).find("other columns"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("x.csv"), std::string::npos) << e.what();
+    }
+  EXPECT_EQ(slurp(dir / "x.csv"), "p,q\n1,2\n"); // left as it was
+}
+
 TEST(Faults, TheLockRemovesWhatAKilledRunLeftHalfWritten)
 {
   const auto dir = scratch("faults_leftovers");
