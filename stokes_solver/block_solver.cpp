@@ -40,13 +40,14 @@ namespace rectify::stokes
     struct GapSchur
     {
       PC  mass = nullptr, laplace = nullptr;
-      Mat block = nullptr;
+      Mat block = nullptr, mass_block = nullptr;
       Vec work = nullptr;
       ~GapSchur()
       {
         PCDestroy(&mass);
         PCDestroy(&laplace);
         MatDestroy(&block);
+        MatDestroy(&mass_block);
         VecDestroy(&work);
       }
     };
@@ -67,11 +68,13 @@ namespace rectify::stokes
     {
       KSP ksp = nullptr;
       IS  u = nullptr, p = nullptr;
+      Mat preconditioner = nullptr; ///< "mass": the system with the mass in its pressure block
       ~Objects()
       {
         KSPDestroy(&ksp);
         ISDestroy(&u);
         ISDestroy(&p);
+        MatDestroy(&preconditioner);
       }
     };
   } // namespace
@@ -82,7 +85,7 @@ namespace rectify::stokes
                      : "FGMRES + field-split Schur (BoomerAMG on velocity, pressure mass on Schur)";
   }
 
-  unsigned solve_block_system(Mat system, Mat preconditioner, Mat gap_laplace,
+  unsigned solve_block_system(Mat system, Mat pressure_mass, Mat gap_laplace,
                               const std::vector<BlockRhs> &systems,
                               const std::vector<PetscInt> &velocity, const std::vector<PetscInt> &pressure,
                               const BlockSolverSettings &settings)
@@ -95,7 +98,15 @@ namespace rectify::stokes
     PC      pc;
     check_petsc(KSPCreate(comm, &o.ksp), "KSPCreate");
     check_petsc(KSPSetOptionsPrefix(o.ksp, "rectify_"), "KSPSetOptionsPrefix"); // before the splits: they inherit it
-    check_petsc(KSPSetOperators(o.ksp, system, preconditioner), "KSPSetOperators");
+    // "gap": the velocity AMG reads the system's own velocity block, the
+    // Schur preconditioner the pressure matrices; "mass": PETSc's Schur
+    // split reads the mass from the preconditioner's pressure block.
+    if (gap_laplace == nullptr)
+      {
+        check_petsc(MatDuplicate(system, MAT_COPY_VALUES, &o.preconditioner), "MatDuplicate");
+        check_petsc(MatAXPY(o.preconditioner, 1.0, pressure_mass, SUBSET_NONZERO_PATTERN), "MatAXPY");
+      }
+    check_petsc(KSPSetOperators(o.ksp, system, gap_laplace == nullptr ? o.preconditioner : system), "KSPSetOperators");
     check_petsc(KSPSetType(o.ksp, KSPFGMRES), "KSPSetType");
     check_petsc(KSPGMRESSetRestart(o.ksp, 300), "KSPGMRESSetRestart");
     check_petsc(KSPSetTolerances(o.ksp, settings.tolerance, 1e-300, 1e10, static_cast<PetscInt>(settings.max_iterations)),
@@ -125,7 +136,8 @@ namespace rectify::stokes
       {"-rectify_fieldsplit_u_pc_hypre_boomeramg_P_max", "4"},
       {"-rectify_fieldsplit_u_pc_hypre_boomeramg_agg_nl", "1"},
       {"-rectify_fieldsplit_p_ksp_type", "preonly"},
-      {"-rectify_fieldsplit_p_pc_type", "jacobi"},
+      // "gap": replaced after set-up (the system's pressure block is zero)
+      {"-rectify_fieldsplit_p_pc_type", gap_laplace == nullptr ? "jacobi" : "none"},
       {"-rectify_gap_pc_hypre_boomeramg_strong_threshold", "0.5"},
       {"-rectify_gap_pc_hypre_boomeramg_coarsen_type", "HMIS"},
       {"-rectify_gap_pc_hypre_boomeramg_interp_type", "ext+i"},
@@ -149,12 +161,12 @@ namespace rectify::stokes
         check_petsc(PCFieldSplitGetSubKSP(pc, &n_sub, &sub), "PCFieldSplitGetSubKSP");
         KSP schur_ksp = sub[1];
         PetscFree(sub);
-        Mat schur_operator, a11;
-        check_petsc(KSPGetOperators(schur_ksp, &schur_operator, &a11), "KSPGetOperators");
         check_petsc(MatCreateSubMatrix(gap_laplace, o.p, o.p, MAT_INITIAL_MATRIX, &gap.block), "MatCreateSubMatrix");
+        check_petsc(MatCreateSubMatrix(pressure_mass, o.p, o.p, MAT_INITIAL_MATRIX, &gap.mass_block),
+                    "MatCreateSubMatrix");
         check_petsc(PCCreate(comm, &gap.mass), "PCCreate");
         check_petsc(PCSetType(gap.mass, PCJACOBI), "PCSetType");
-        check_petsc(PCSetOperators(gap.mass, a11, a11), "PCSetOperators");
+        check_petsc(PCSetOperators(gap.mass, gap.mass_block, gap.mass_block), "PCSetOperators");
         check_petsc(PCSetUp(gap.mass), "PCSetUp (mass)");
         check_petsc(PCCreate(comm, &gap.laplace), "PCCreate");
         check_petsc(PCSetOptionsPrefix(gap.laplace, "rectify_gap_"), "PCSetOptionsPrefix");

@@ -34,14 +34,14 @@ namespace rectify::stokes
   };
 
   /// Solves system x = rhs for each of `systems`, with one preconditioner
-  /// set-up. `preconditioner` is the system matrix with the
-  /// (negative) scaled pressure mass matrix in the zero pressure block;
-  /// `gap_laplace`, if not null, the (positive) scaled thin-gap Laplacian in
-  /// the pressure block of a matrix of the system's size. `velocity` and
+  /// set-up. `pressure_mass` is the (negative) scaled pressure mass matrix
+  /// and `gap_laplace`, if not null, the (positive) scaled thin-gap
+  /// Laplacian, each in the pressure block of a matrix of the system's size
+  /// (the pressure rows alone, or a subset of the system's pattern). `velocity` and
   /// `pressure` are this process's DoF indices of each field. Returns the
   /// number of iterations, summed; throws std::runtime_error naming the solver, the
   /// iterations and PETSc's reason if it does not converge.
-  unsigned solve_block_system(Mat system, Mat preconditioner, Mat gap_laplace,
+  unsigned solve_block_system(Mat system, Mat pressure_mass, Mat gap_laplace,
                               const std::vector<BlockRhs> &systems,
                               const std::vector<PetscInt> &velocity, const std::vector<PetscInt> &pressure,
                               const BlockSolverSettings &settings);

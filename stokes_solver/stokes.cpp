@@ -422,6 +422,7 @@ namespace rectify::stokes
       void          make_grid();
       void          setup_system();
       void          assemble_system(const PETScWrappers::MPI::Vector *state, bool with_gap_laplace);
+      double        gap_weight(const DoFHandler<3>::active_cell_iterator &cell) const;
       void          solve(bool with_motion, bool with_exchange);
       PETScWrappers::MPI::Vector physical(const PETScWrappers::MPI::Vector &scaled) const;
       void          make_physical_solution();
@@ -457,6 +458,9 @@ namespace rectify::stokes
       const FESystem<3>                fe_;
       const MappingFE<3>               mapping_;
       const QGaussSimplex<3>           quadrature_;
+      /// Exact for the Stokes matrix (degree 2 on straight tetrahedra);
+      /// Navier-Stokes's convection (degree 5) takes quadrature_.
+      const QGaussSimplex<3>           stokes_quadrature_;
       const QGaussSimplex<2>           face_quadrature_;
       const FEValuesExtractors::Vector velocities_;
       const FEValuesExtractors::Scalar pressure_;
@@ -496,7 +500,10 @@ namespace rectify::stokes
       /// the mass balance as much as the momentum.
       double sigma_ = 0;
 
-      PETScWrappers::MPI::SparseMatrix system_matrix_, preconditioner_matrix_, gap_laplace_matrix_;
+      PETScWrappers::MPI::SparseMatrix system_matrix_;
+      /// The Schur preconditioner's matrices, in the pressure rows alone: the
+      /// (negative) scaled pressure mass, the (positive) gap Laplacian.
+      PETScWrappers::MPI::SparseMatrix pressure_mass_matrix_, gap_laplace_matrix_;
       PETScWrappers::MPI::Vector       system_rhs_, solution_;
       PETScWrappers::MPI::Vector       physical_solution_; ///< p times sigma, with ghost values
       PETScWrappers::MPI::Vector       state_;             ///< Newton's linearisation point, ghosted
@@ -523,6 +530,7 @@ namespace rectify::stokes
       , fe_(FE_SimplexP<3>(2), 3, FE_SimplexP<3>(1), 1)
       , mapping_(FE_SimplexP<3>(1))
       , quadrature_(3)
+      , stokes_quadrature_(2)
       , face_quadrature_(3)
       , velocities_(0)
       , pressure_(3)
@@ -658,12 +666,23 @@ namespace rectify::stokes
                 (settings_.solver == "auto" && result_.n_dofs <= static_cast<std::size_t>(settings_.direct_max_dofs));
       gap_schur_ = !direct_ && settings_.schur == "gap";
       if (!direct_)
-        preconditioner_matrix_.reinit(owned_, owned_, dsp, comm_);
+        {
+          // The pressure block alone: the Schur preconditioner's matrices
+          // take no velocity rows (the velocity AMG reads the system's).
+          DynamicSparsityPattern       pressure_dsp(relevant_);
+          Table<2, DoFTools::Coupling> pressure_only(4, 4);
+          pressure_only.fill(DoFTools::none);
+          pressure_only(3, 3) = DoFTools::always;
+          DoFTools::make_sparsity_pattern(dof_handler_, pressure_only, pressure_dsp, AffineConstraints<double>(), false);
+          SparsityTools::distribute_sparsity_pattern(pressure_dsp, owned_, comm_, relevant_);
+          pressure_mass_matrix_.reinit(owned_, owned_, pressure_dsp, comm_);
+          if (gap_schur_)
+            gap_laplace_matrix_.reinit(owned_, owned_, pressure_dsp, comm_);
+        }
       if (gap_schur_)
         {
-          // The gap Laplacian (pressure block only) vanishes on the outlet's
-          // pressure DoFs, where the traction fixes the pressure.
-          gap_laplace_matrix_.reinit(owned_, owned_, dsp, comm_);
+          // The gap Laplacian vanishes on the outlet's pressure DoFs, where
+          // the traction fixes the pressure.
           std::map<types::global_dof_index, double> outlet_values;
           VectorTools::interpolate_boundary_values(mapping_, dof_handler_, mesher::outlet, zero, outlet_values,
                                                    fe_.component_mask(pressure_));
@@ -736,6 +755,25 @@ namespace rectify::stokes
     // so the energy balance holds), linearised about the state's velocity w:
     //   rho [(w.grad)u + (u.grad)w + (div w) u / 2 + (div u) w / 2] on the left,
     //   rho [(w.grad)w + (div w) w / 2] on the right.
+    // The cell's weight in the gap Laplacian (sigma^2 from the scaling): in
+    // the gap h^2 / 12; outside it d^2 with d the distance to the nearest
+    // wall (averaged over a plane channel's width w it is w^2/12, the gap's
+    // weight; over a round pipe's radius a, a^2/6 (a^2/8 exactly)).
+    double StokesProblem::gap_weight(const DoFHandler<3>::active_cell_iterator &cell) const
+    {
+      const double h = cell->material_id() == mesher::gap ? gap_heights_->of(cell) : 0.0;
+      double       k = h * h / 12;
+      if (!(h > 0))
+        {
+          const auto c = cell->center();
+          k            = std::pow((*wall_distance_)({c[0], c[1], c[2]}), 2);
+        }
+      return sigma_ * sigma_ * k / mu_;
+    }
+
+    // The system matrix and right-hand sides; with the iterative solver the
+    // pressure mass and (`with_gap_laplace`) the gap Laplacian; `state` is
+    // Newton's linearisation point (null: Stokes).
     void StokesProblem::assemble_system(const PETScWrappers::MPI::Vector *state, bool with_gap_laplace)
     {
       system_matrix_ = 0;
@@ -748,56 +786,44 @@ namespace rectify::stokes
       if (with_exchange)
         for (auto &rhs : exchange_rhs_)
           rhs = 0;
-      const Vector<double> no_load(fe_.n_dofs_per_cell());
       if (!direct_)
-        preconditioner_matrix_ = 0;
-      FEValues<3>     fe_values(mapping_, fe_, quadrature_, update_values | update_gradients | update_JxW_values);
+        pressure_mass_matrix_ = 0;
+      const Vector<double> no_load(fe_.n_dofs_per_cell());
+      const auto          &quadrature = state != nullptr ? quadrature_ : stokes_quadrature_;
+      FEValues<3>     fe_values(mapping_, fe_, quadrature, update_values | update_gradients | update_JxW_values);
       FEFaceValues<3> fe_face_values(mapping_, fe_, face_quadrature_,
                                      update_values | update_normal_vectors | update_JxW_values);
       const unsigned  dofs_per_cell = fe_.n_dofs_per_cell();
-      FullMatrix<double> local_matrix(dofs_per_cell, dofs_per_cell), local_preconditioner(dofs_per_cell, dofs_per_cell),
-        local_gap_laplace(dofs_per_cell, dofs_per_cell);
+      FullMatrix<double>                   local_matrix(dofs_per_cell, dofs_per_cell);
       Vector<double>                       local_rhs(dofs_per_cell);
       std::vector<types::global_dof_index> local_dof_indices(dofs_per_cell);
       // Each shape function has one non-zero component: velocity functions
       // couple through mu grad.grad only with the same component, and with
       // pressure functions through the divergence (that component's derivative).
-      std::vector<unsigned> component(dofs_per_cell);
+      std::vector<unsigned> component(dofs_per_cell), pressure_dof;
       for (unsigned i = 0; i < dofs_per_cell; ++i)
-        component[i] = fe_.system_to_component_index(i).first;
-      std::vector<Tensor<1, 3>> grad_phi(dofs_per_cell);
-      std::vector<double>       phi(dofs_per_cell);
-      std::vector<Tensor<1, 3>> w(quadrature_.size());
-      std::vector<Tensor<2, 3>> grad_w(quadrature_.size());
-      const double              p_out = settings_.outlet_pressure_Pa;
+        if ((component[i] = fe_.system_to_component_index(i).first) == 3)
+          pressure_dof.push_back(i);
+      const unsigned                       n_p = pressure_dof.size();
+      FullMatrix<double>                   local_mass(n_p, n_p), local_gap_laplace(n_p, n_p);
+      std::vector<types::global_dof_index> pressure_indices(n_p);
+      std::vector<Tensor<1, 3>>            grad_phi(dofs_per_cell);
+      std::vector<double>                  phi(dofs_per_cell);
+      std::vector<Tensor<1, 3>>            w(quadrature.size());
+      std::vector<Tensor<2, 3>>            grad_w(quadrature.size());
+      const double                         p_out = settings_.outlet_pressure_Pa;
 
       for (const auto &cell : dof_handler_.active_cell_iterators())
         if (cell->is_locally_owned())
           {
             fe_values.reinit(cell);
-            local_matrix = 0, local_preconditioner = 0, local_rhs = 0, local_gap_laplace = 0;
+            local_matrix = 0, local_rhs = 0, local_mass = 0, local_gap_laplace = 0;
             if (state != nullptr)
               {
                 fe_values[velocities_].get_function_values(*state, w);
                 fe_values[velocities_].get_function_gradients(*state, grad_w);
               }
-            // The cell's weight in the gap Laplacian (sigma^2 from the scaling).
-            double gap_weight = 0;
-            if (with_gap_laplace)
-              {
-                // Outside the gap, d^2 with d the distance to the nearest
-                // wall: averaged over a plane channel's width w it is w^2/12,
-                // the gap's weight; over a round pipe's radius a, a^2/6 (a^2/8
-                // exactly).
-                const double h = cell->material_id() == mesher::gap ? gap_heights_->of(cell) : 0.0;
-                double       k = h * h / 12;
-                if (!(h > 0))
-                  {
-                    const auto c = cell->center();
-                    k            = std::pow((*wall_distance_)({c[0], c[1], c[2]}), 2);
-                  }
-                gap_weight = sigma_ * sigma_ * k / mu_;
-              }
+            const double laplace_weight = with_gap_laplace ? gap_weight(cell) : 0.0;
             for (unsigned q = 0; q < fe_values.n_quadrature_points; ++q)
               {
                 const double dx    = fe_values.JxW(q);
@@ -836,16 +862,18 @@ namespace rectify::stokes
                         else if (cj < 3) // sigma B: -(q, div u)
                           value = -sigma_ * phi[i] * grad_phi[j][cj] * dx;
                         else
-                          {
-                            // preconditioner: -(1/mu)(p, q); the gap Laplacian
-                            local_preconditioner(i, j) -= sigma_ * sigma_ * phi[i] * phi[j] / mu_ * dx;
-                            local_gap_laplace(i, j) += gap_weight * (grad_phi[i] * grad_phi[j]) * dx;
-                            continue;
-                          }
+                          continue; // the zero pressure block
                         local_matrix(i, j) += value;
-                        local_preconditioner(i, j) += value;
                       }
                   }
+                // preconditioner: -(1/mu)(p, q); the gap Laplacian
+                for (unsigned a = 0; a < n_p; ++a)
+                  for (unsigned b = 0; b < n_p; ++b)
+                    {
+                      const unsigned i = pressure_dof[a], j = pressure_dof[b];
+                      local_mass(a, b) -= sigma_ * sigma_ * phi[i] * phi[j] / mu_ * dx;
+                      local_gap_laplace(a, b) += laplace_weight * (grad_phi[i] * grad_phi[j]) * dx;
+                    }
               }
             // f: -(p_out n, v) on the outlet
             for (const auto f : cell->face_indices())
@@ -867,14 +895,16 @@ namespace rectify::stokes
               for (std::size_t k = 0; k < exchange_rhs_.size(); ++k)
                 exchange_constraints_[k].distribute_local_to_global(no_load, local_dof_indices, exchange_rhs_[k],
                                                                     local_matrix);
+            for (unsigned a = 0; a < n_p; ++a)
+              pressure_indices[a] = local_dof_indices[pressure_dof[a]];
             if (!direct_)
-              constraints_.distribute_local_to_global(local_preconditioner, local_dof_indices, preconditioner_matrix_);
+              pressure_mass_matrix_.add(pressure_indices, local_mass);
             if (with_gap_laplace)
-              outlet_pressure_.distribute_local_to_global(local_gap_laplace, local_dof_indices, gap_laplace_matrix_);
+              outlet_pressure_.distribute_local_to_global(local_gap_laplace, pressure_indices, gap_laplace_matrix_);
           }
       system_matrix_.compress(VectorOperation::add);
       if (!direct_)
-        preconditioner_matrix_.compress(VectorOperation::add);
+        pressure_mass_matrix_.compress(VectorOperation::add);
       if (with_gap_laplace)
         gap_laplace_matrix_.compress(VectorOperation::add);
       system_rhs_.compress(VectorOperation::add);
@@ -930,7 +960,7 @@ namespace rectify::stokes
           if (with_exchange)
             for (std::size_t k = 0; k < exchange_rhs_.size(); ++k)
               systems.push_back({exchange_rhs_[k], exchange_solution_[k]});
-          result_.iterations += solve_block_system(system_matrix_.petsc_matrix(), preconditioner_matrix_.petsc_matrix(),
+          result_.iterations += solve_block_system(system_matrix_.petsc_matrix(), pressure_mass_matrix_.petsc_matrix(),
                                                    gap_schur_ ? gap_laplace_matrix_.petsc_matrix() : nullptr,
                                                    systems, velocity, pressure, b);
           result_.solver = block_solver_name(gap_schur_);
@@ -1043,15 +1073,14 @@ namespace rectify::stokes
       std::vector<Tensor<2, 3>>            grad_u(quadrature_.size()), grad_l(quadrature_.size());
       std::vector<double>                  p(quadrature_.size()), div_l(quadrature_.size());
       std::vector<types::global_dof_index> dofs(fe_.n_dofs_per_cell());
+      std::vector<double>                  lift_values(dofs.size());
       double                               sum = 0;
       for (const auto &cell : dof_handler_.active_cell_iterators())
         if (cell->is_locally_owned())
           {
             cell->get_dof_indices(dofs);
-            bool touches = false;
-            for (const auto i : dofs)
-              touches = touches || lift(i) != 0.0;
-            if (!touches)
+            lift.extract_subvector_to(dofs.begin(), dofs.end(), lift_values.begin());
+            if (std::all_of(lift_values.begin(), lift_values.end(), [](double v) { return v == 0.0; }))
               continue;
             fe_values.reinit(cell);
             fe_values[velocities_].get_function_gradients(solution, grad_u);
@@ -1186,6 +1215,7 @@ namespace rectify::stokes
       L.swept_flow_m3_per_s = inflow(reed_lift_, mesher::reed);
       L.mass_balance_b_rel_error = std::abs(L.outflow_b_m3_per_s - L.swept_flow_m3_per_s) /
                                    std::max(std::abs(L.swept_flow_m3_per_s), 1e-300);
+      lap("loading: forces");
       if (motion_->added_mass)
         {
           const PotentialFlow pf = solve_potential_flow(*triangulation_, mapping_, motion_->shape, comm_);
@@ -1199,7 +1229,7 @@ namespace rectify::stokes
                                    std::to_string(result_.n_dofs) + " DoFs); nothing is reported");
       L.computed     = true;
       L.solve_time_s = seconds_since(t);
-      lap("loading: forces, added mass");
+      lap("loading: added mass");
     }
 
     void StokesProblem::store(const FlowIntegrals &s)
