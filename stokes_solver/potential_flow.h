@@ -23,9 +23,9 @@ namespace rectify::stokes
     std::size_t n_dofs            = 0;
   };
 
-  /// Solved by MUMPS: a scalar Laplacian with about a quarter of the flow's
-  /// unknowns, but as anisotropic in a thin gap (CG with BoomerAMG took 35 s
-  /// at 2 um where MUMPS takes about one; docs/benchmarks.md).
+  /// P2 on the flow's mesh, solved by CG with BoomerAMG (strong threshold
+  /// 0.7 for the gap's flat cells, Chebyshev smoothing; 30-50 iterations
+  /// from 2 um to 100 um), MUMPS if that does not converge.
   PotentialFlow solve_potential_flow(const dealii::Triangulation<3> &triangulation, const dealii::Mapping<3> &mapping,
                                      const std::function<double(double, double)> &shape, MPI_Comm comm);
 } // namespace rectify::stokes

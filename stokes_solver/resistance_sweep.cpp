@@ -77,7 +77,7 @@ namespace rectify::stokes
     // The gap is opening x phi(s): every conductance scales as opening^3, so
     // the gap's part of R is R_gap(x0) (x0 / x)^3 for one valve, shape,
     // closed part and viscosity (tests/test_stokes.cpp checks the scaling to
-    // 1e-6). It is solved once per process at x0 = 100 um (3-4 s: a 310 k-cell
+    // 1e-6). It is solved once per process at x0 = 100 um (under 1 s: a 310 k-cell
     // problem at two spacings) and scaled for every opening; a fixed x0 makes
     // the result the same whichever openings a process solves first.
     constexpr double           x0    = 100e-6;

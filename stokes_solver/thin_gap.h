@@ -35,7 +35,6 @@ namespace rectify::stokes
   {
     double      R_Pa_s_per_m3 = 0; ///< (p_source - p_sink) / Q
     std::size_t n_unknowns    = 0;
-    unsigned    iterations    = 0; ///< conjugate gradients
   };
 
   /// Solves the Reynolds equation; throws std::runtime_error if the solver
