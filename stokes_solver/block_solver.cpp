@@ -104,7 +104,7 @@ namespace rectify::stokes
     if (gap_laplace == nullptr)
       {
         check_petsc(MatDuplicate(system, MAT_COPY_VALUES, &o.preconditioner), "MatDuplicate");
-        check_petsc(MatAXPY(o.preconditioner, 1.0, pressure_mass, SUBSET_NONZERO_PATTERN), "MatAXPY");
+        check_petsc(MatAXPY(o.preconditioner, 1.0, pressure_mass, DIFFERENT_NONZERO_PATTERN), "MatAXPY");
       }
     check_petsc(KSPSetOperators(o.ksp, system, gap_laplace == nullptr ? o.preconditioner : system), "KSPSetOperators");
     check_petsc(KSPSetType(o.ksp, KSPFGMRES), "KSPSetType");
@@ -136,8 +136,10 @@ namespace rectify::stokes
       {"-rectify_fieldsplit_u_pc_hypre_boomeramg_P_max", "4"},
       {"-rectify_fieldsplit_u_pc_hypre_boomeramg_agg_nl", "1"},
       {"-rectify_fieldsplit_p_ksp_type", "preonly"},
-      // "gap": replaced after set-up (the system's pressure block is zero)
-      {"-rectify_fieldsplit_p_pc_type", gap_laplace == nullptr ? "jacobi" : "none"},
+      // "gap": replaced after set-up (Jacobi takes 1 for the system's zero
+      // pressure block meanwhile); the defaults persist, so they are the
+      // same for both choices
+      {"-rectify_fieldsplit_p_pc_type", "jacobi"},
       {"-rectify_gap_pc_hypre_boomeramg_strong_threshold", "0.5"},
       {"-rectify_gap_pc_hypre_boomeramg_coarsen_type", "HMIS"},
       {"-rectify_gap_pc_hypre_boomeramg_interp_type", "ext+i"},
