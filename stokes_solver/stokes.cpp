@@ -411,6 +411,88 @@ namespace rectify::stokes
       }
     };
 
+    /// One cell's share of the linear system: the Stokes matrix (with
+    /// Newton's linearised convection about a state w) and right-hand side,
+    /// the pressure mass and the gap Laplacian (pressure DoFs only). Each
+    /// shape function has one non-zero component: velocity functions couple
+    /// through mu grad.grad only with the same component, and with pressure
+    /// functions through the divergence (that component's derivative).
+    struct CellSystem
+    {
+      explicit CellSystem(const FiniteElement<3> &fe)
+        : n(fe.n_dofs_per_cell()), component(n), grad_phi(n), phi(n), matrix(n, n), rhs(n)
+      {
+        for (unsigned i = 0; i < n; ++i)
+          if ((component[i] = fe.system_to_component_index(i).first) == 3)
+            pressure_dof.push_back(i);
+        mass.reinit(pressure_dof.size(), pressure_dof.size());
+        gap_laplace.reinit(pressure_dof.size(), pressure_dof.size());
+      }
+
+      void clear() { matrix = 0, rhs = 0, mass = 0, gap_laplace = 0; }
+
+      /// Quadrature point q; w and grad_w null for Stokes.
+      void add_point(const FEValues<3> &v, unsigned q, const Tensor<1, 3> *w, const Tensor<2, 3> *grad_w, double mu,
+                     double rho, double sigma, double laplace_weight)
+      {
+        const double dx    = v.JxW(q);
+        const double div_w = w != nullptr ? trace(*grad_w) : 0.0;
+        for (unsigned i = 0; i < n; ++i)
+          {
+            grad_phi[i] = v.shape_grad_component(i, q, component[i]);
+            phi[i]      = v.shape_value_component(i, q, component[i]);
+          }
+        for (unsigned i = 0; i < n; ++i)
+          {
+            const unsigned ci = component[i];
+            // f (Newton): rho [(w.grad)w + (div w) w / 2] . v
+            if (w != nullptr && ci < 3)
+              rhs(i) += rho * (*w * (*grad_w)[ci] + 0.5 * div_w * (*w)[ci]) * phi[i] * dx;
+            for (unsigned j = 0; j < n; ++j)
+              {
+                const unsigned cj    = component[j];
+                double         value = 0;
+                if (ci < 3 && cj < 3)
+                  {
+                    // convection (Newton): rho [(w.grad)u + (div w) u/2 + (u.grad)w + (div u) w/2] . v
+                    if (w != nullptr)
+                      value = rho *
+                              ((ci == cj ? *w * grad_phi[j] + 0.5 * div_w * phi[j] : 0.0) +
+                               phi[j] * (*grad_w)[ci][cj] + 0.5 * grad_phi[j][cj] * (*w)[ci]) *
+                              phi[i] * dx;
+                    // A: (mu grad u, grad v)
+                    if (ci == cj)
+                      value += mu * (grad_phi[i] * grad_phi[j]) * dx;
+                    else if (w == nullptr)
+                      continue;
+                  }
+                else if (ci < 3) // sigma B^T: -(p, div v)
+                  value = -sigma * grad_phi[i][ci] * phi[j] * dx;
+                else if (cj < 3) // sigma B: -(q, div u)
+                  value = -sigma * phi[i] * grad_phi[j][cj] * dx;
+                else
+                  continue; // the zero pressure block
+                matrix(i, j) += value;
+              }
+          }
+        // preconditioner: -(1/mu)(p, q); the gap Laplacian
+        for (unsigned a = 0; a < pressure_dof.size(); ++a)
+          for (unsigned b = 0; b < pressure_dof.size(); ++b)
+            {
+              const unsigned i = pressure_dof[a], j = pressure_dof[b];
+              mass(a, b) -= sigma * sigma * phi[i] * phi[j] / mu * dx;
+              gap_laplace(a, b) += laplace_weight * (grad_phi[i] * grad_phi[j]) * dx;
+            }
+      }
+
+      const unsigned            n;
+      std::vector<unsigned>     component, pressure_dof;
+      std::vector<Tensor<1, 3>> grad_phi;
+      std::vector<double>       phi;
+      FullMatrix<double>        matrix, mass, gap_laplace;
+      Vector<double>            rhs;
+    };
+
     class StokesProblem
     {
     public:
@@ -793,22 +875,8 @@ namespace rectify::stokes
       FEValues<3>     fe_values(mapping_, fe_, quadrature, update_values | update_gradients | update_JxW_values);
       FEFaceValues<3> fe_face_values(mapping_, fe_, face_quadrature_,
                                      update_values | update_normal_vectors | update_JxW_values);
-      const unsigned  dofs_per_cell = fe_.n_dofs_per_cell();
-      FullMatrix<double>                   local_matrix(dofs_per_cell, dofs_per_cell);
-      Vector<double>                       local_rhs(dofs_per_cell);
-      std::vector<types::global_dof_index> local_dof_indices(dofs_per_cell);
-      // Each shape function has one non-zero component: velocity functions
-      // couple through mu grad.grad only with the same component, and with
-      // pressure functions through the divergence (that component's derivative).
-      std::vector<unsigned> component(dofs_per_cell), pressure_dof;
-      for (unsigned i = 0; i < dofs_per_cell; ++i)
-        if ((component[i] = fe_.system_to_component_index(i).first) == 3)
-          pressure_dof.push_back(i);
-      const unsigned                       n_p = pressure_dof.size();
-      FullMatrix<double>                   local_mass(n_p, n_p), local_gap_laplace(n_p, n_p);
-      std::vector<types::global_dof_index> pressure_indices(n_p);
-      std::vector<Tensor<1, 3>>            grad_phi(dofs_per_cell);
-      std::vector<double>                  phi(dofs_per_cell);
+      CellSystem                           local(fe_);
+      std::vector<types::global_dof_index> dofs(fe_.n_dofs_per_cell()), pressure_dofs(local.pressure_dof.size());
       std::vector<Tensor<1, 3>>            w(quadrature.size());
       std::vector<Tensor<2, 3>>            grad_w(quadrature.size());
       const double                         p_out = settings_.outlet_pressure_Pa;
@@ -817,7 +885,7 @@ namespace rectify::stokes
         if (cell->is_locally_owned())
           {
             fe_values.reinit(cell);
-            local_matrix = 0, local_rhs = 0, local_mass = 0, local_gap_laplace = 0;
+            local.clear();
             if (state != nullptr)
               {
                 fe_values[velocities_].get_function_values(*state, w);
@@ -825,82 +893,32 @@ namespace rectify::stokes
               }
             const double laplace_weight = with_gap_laplace ? gap_weight(cell) : 0.0;
             for (unsigned q = 0; q < fe_values.n_quadrature_points; ++q)
-              {
-                const double dx    = fe_values.JxW(q);
-                const double div_w = state != nullptr ? trace(grad_w[q]) : 0.0;
-                for (unsigned i = 0; i < dofs_per_cell; ++i)
-                  {
-                    grad_phi[i] = fe_values.shape_grad_component(i, q, component[i]);
-                    phi[i]      = fe_values.shape_value_component(i, q, component[i]);
-                  }
-                for (unsigned i = 0; i < dofs_per_cell; ++i)
-                  {
-                    const unsigned ci = component[i];
-                    // f (Newton): rho [(w.grad)w + (div w) w / 2] . v
-                    if (state != nullptr && ci < 3)
-                      local_rhs(i) += rho_ * (w[q] * grad_w[q][ci] + 0.5 * div_w * w[q][ci]) * phi[i] * dx;
-                    for (unsigned j = 0; j < dofs_per_cell; ++j)
-                      {
-                        const unsigned cj    = component[j];
-                        double         value = 0;
-                        if (ci < 3 && cj < 3)
-                          {
-                            // convection (Newton): rho [(w.grad)u + (div w) u/2 + (u.grad)w + (div u) w/2] . v
-                            if (state != nullptr)
-                              value = rho_ *
-                                      ((ci == cj ? w[q] * grad_phi[j] + 0.5 * div_w * phi[j] : 0.0) +
-                                       phi[j] * grad_w[q][ci][cj] + 0.5 * grad_phi[j][cj] * w[q][ci]) *
-                                      phi[i] * dx;
-                            // A: (mu grad u, grad v)
-                            if (ci == cj)
-                              value += mu_ * (grad_phi[i] * grad_phi[j]) * dx;
-                            else if (state == nullptr)
-                              continue;
-                          }
-                        else if (ci < 3) // sigma B^T: -(p, div v)
-                          value = -sigma_ * grad_phi[i][ci] * phi[j] * dx;
-                        else if (cj < 3) // sigma B: -(q, div u)
-                          value = -sigma_ * phi[i] * grad_phi[j][cj] * dx;
-                        else
-                          continue; // the zero pressure block
-                        local_matrix(i, j) += value;
-                      }
-                  }
-                // preconditioner: -(1/mu)(p, q); the gap Laplacian
-                for (unsigned a = 0; a < n_p; ++a)
-                  for (unsigned b = 0; b < n_p; ++b)
-                    {
-                      const unsigned i = pressure_dof[a], j = pressure_dof[b];
-                      local_mass(a, b) -= sigma_ * sigma_ * phi[i] * phi[j] / mu_ * dx;
-                      local_gap_laplace(a, b) += laplace_weight * (grad_phi[i] * grad_phi[j]) * dx;
-                    }
-              }
+              local.add_point(fe_values, q, state != nullptr ? &w[q] : nullptr,
+                              state != nullptr ? &grad_w[q] : nullptr, mu_, rho_, sigma_, laplace_weight);
             // f: -(p_out n, v) on the outlet
             for (const auto f : cell->face_indices())
               if (cell->face(f)->at_boundary() && cell->face(f)->boundary_id() == mesher::outlet)
                 {
                   fe_face_values.reinit(cell, f);
                   for (unsigned q = 0; q < fe_face_values.n_quadrature_points; ++q)
-                    for (unsigned i = 0; i < dofs_per_cell; ++i)
-                      local_rhs(i) -= p_out *
+                    for (unsigned i = 0; i < local.n; ++i)
+                      local.rhs(i) -= p_out *
                                       (fe_face_values[velocities_].value(i, q) * fe_face_values.normal_vector(q)) *
                                       fe_face_values.JxW(q);
                 }
-            cell->get_dof_indices(local_dof_indices);
-            constraints_.distribute_local_to_global(local_matrix, local_rhs, local_dof_indices, system_matrix_,
-                                                    system_rhs_);
+            cell->get_dof_indices(dofs);
+            constraints_.distribute_local_to_global(local.matrix, local.rhs, dofs, system_matrix_, system_rhs_);
             if (with_motion) // solve (b): no traction on the outlet; the reed's motion through the matrix
-              motion_constraints_.distribute_local_to_global(no_load, local_dof_indices, motion_rhs_, local_matrix);
+              motion_constraints_.distribute_local_to_global(no_load, dofs, motion_rhs_, local.matrix);
             if (with_exchange)
               for (std::size_t k = 0; k < exchange_rhs_.size(); ++k)
-                exchange_constraints_[k].distribute_local_to_global(no_load, local_dof_indices, exchange_rhs_[k],
-                                                                    local_matrix);
-            for (unsigned a = 0; a < n_p; ++a)
-              pressure_indices[a] = local_dof_indices[pressure_dof[a]];
+                exchange_constraints_[k].distribute_local_to_global(no_load, dofs, exchange_rhs_[k], local.matrix);
+            for (unsigned a = 0; a < pressure_dofs.size(); ++a)
+              pressure_dofs[a] = dofs[local.pressure_dof[a]];
             if (!direct_)
-              pressure_mass_matrix_.add(pressure_indices, local_mass);
+              pressure_mass_matrix_.add(pressure_dofs, local.mass);
             if (with_gap_laplace)
-              outlet_pressure_.distribute_local_to_global(local_gap_laplace, pressure_indices, gap_laplace_matrix_);
+              outlet_pressure_.distribute_local_to_global(local.gap_laplace, pressure_dofs, gap_laplace_matrix_);
           }
       system_matrix_.compress(VectorOperation::add);
       if (!direct_)
