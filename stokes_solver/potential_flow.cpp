@@ -27,11 +27,12 @@ namespace rectify::stokes
 
   namespace
   {
-    /// CG with one BoomerAMG V-cycle per iteration to a residual of 1e-8 of
-    /// the right-hand side's (the added mass is the energy, whose error is
-    /// of the order of the solution's squared: 1e-9 at 2 um, 1e-13 at
-    /// 100 um against MUMPS); MUMPS where that does not converge in 200
-    /// iterations (strong threshold 0.25 and 0.5 do not, in the gap).
+    /// CG with one BoomerAMG V-cycle per iteration until PETSc's (preconditioned)
+    /// residual norm is 1e-8 of the right-hand side's (the added mass is the
+    /// energy, whose error is of the order of the solution's squared: 1e-9 at
+    /// 2 um, 1e-13 at 100 um against MUMPS on the reference valve); MUMPS
+    /// where that is not reached in 200 iterations (as with strong
+    /// thresholds 0.25 and 0.5, in the gap).
     void solve_laplace(const PETScWrappers::MPI::SparseMatrix &matrix, PETScWrappers::MPI::Vector &solution,
                        const PETScWrappers::MPI::Vector &rhs, MPI_Comm comm)
     {

@@ -816,27 +816,6 @@ namespace rectify::stokes
       c.close();
     }
 
-    // The block system, in the scaled unknowns (u, p / sigma):
-    //
-    //   [ A        sigma B^T ] [ u         ]   [ f ]
-    //   [ sigma B  0         ] [ p / sigma ] = [ 0 ]
-    //
-    // with the weak form's terms
-    //   A:  (mu grad u, grad v)  the Laplacian form: its natural outlet condition
-    //       (mu grad u - p I) n = -p_out n lets fully developed flow leave
-    //       undisturbed, which the symmetric-gradient form's does not
-    //   B^T: -(p, div v)         B: -(q, div u)
-    //   f:  -(p_out n, v) on the outlet (the traction)
-    // The preconditioner matrix has -(1/mu)(p, q) (scaled by sigma^2) in place
-    // of the zero block; the gap Laplacian (sigma^2 h^2 / (12 mu))(grad p, grad q)
-    // is assembled for the "gap" Schur preconditioner.
-    // With `state` (Newton's step for Navier-Stokes), the convection in
-    // skew-symmetric form, rho (u.grad)u + rho/2 (div u) u (the same for the
-    // exact, divergence-free flow; for the discrete one it makes the
-    // convection's work exactly the kinetic energy flux through the boundary,
-    // so the energy balance holds), linearised about the state's velocity w:
-    //   rho [(w.grad)u + (u.grad)w + (div w) u / 2 + (div u) w / 2] on the left,
-    //   rho [(w.grad)w + (div w) w / 2] on the right.
     // The cell's weight in the gap Laplacian (sigma^2 from the scaling): in
     // the gap h^2 / 12; outside it d^2 with d the distance to the nearest
     // wall (averaged over a plane channel's width w it is w^2/12, the gap's
@@ -853,7 +832,29 @@ namespace rectify::stokes
       return sigma_ * sigma_ * k / mu_;
     }
 
-    // The system matrix and right-hand sides; with the iterative solver the
+    // The block system, in the scaled unknowns (u, p / sigma):
+    //
+    //   [ A        sigma B^T ] [ u         ]   [ f ]
+    //   [ sigma B  0         ] [ p / sigma ] = [ 0 ]
+    //
+    // with the weak form's terms
+    //   A:  (mu grad u, grad v)  the Laplacian form: its natural outlet condition
+    //       (mu grad u - p I) n = -p_out n lets fully developed flow leave
+    //       undisturbed, which the symmetric-gradient form's does not
+    //   B^T: -(p, div v)         B: -(q, div u)
+    //   f:  -(p_out n, v) on the outlet (the traction)
+    // For the iterative solver the pressure mass -(1/mu)(p, q) (scaled by
+    // sigma^2) and the gap Laplacian (sigma^2 h^2 / (12 mu))(grad p, grad q)
+    // ("gap" Schur preconditioner) go into matrices of the pressure rows alone.
+    // With `state` (Newton's step for Navier-Stokes), the convection in
+    // skew-symmetric form, rho (u.grad)u + rho/2 (div u) u (the same for the
+    // exact, divergence-free flow; for the discrete one it makes the
+    // convection's work exactly the kinetic energy flux through the boundary,
+    // so the energy balance holds), linearised about the state's velocity w:
+    //   rho [(w.grad)u + (u.grad)w + (div w) u / 2 + (div u) w / 2] on the left,
+    //   rho [(w.grad)w + (div w) w / 2] on the right.
+    //
+    // Assembled: the system matrix and right-hand sides; with the iterative solver the
     // pressure mass and (`with_gap_laplace`) the gap Laplacian; `state` is
     // Newton's linearisation point (null: Stokes).
     void StokesProblem::assemble_system(const PETScWrappers::MPI::Vector *state, bool with_gap_laplace)
