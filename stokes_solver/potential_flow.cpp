@@ -31,14 +31,13 @@ namespace rectify::stokes
     /// residual norm is 1e-8 of the right-hand side's (the added mass is the
     /// energy, whose error is of the order of the solution's squared: 1e-9 at
     /// 2 um, 1e-13 at 100 um against MUMPS on the reference valve); MUMPS
-    /// where that is not reached in 200 iterations (as with strong
-    /// thresholds 0.25 and 0.5, in the gap).
+    /// where that is not reached in 200 iterations.
     void solve_laplace(const PETScWrappers::MPI::SparseMatrix &matrix, PETScWrappers::MPI::Vector &solution,
                        const PETScWrappers::MPI::Vector &rhs, MPI_Comm comm)
     {
       PETScWrappers::PreconditionBoomerAMG::AdditionalData amg;
       amg.symmetric_operator = true;
-      amg.strong_threshold   = 0.7; // the gap's flat cells, as in the flow's velocity AMG
+      amg.strong_threshold   = 0.7; // the gap's flat cells couple strongly across it (0.25, 0.5: no convergence)
       amg.aggressive_coarsening_num_levels = 1;
       using Relaxation = PETScWrappers::PreconditionBoomerAMG::AdditionalData::RelaxationType;
       amg.relaxation_type_up = amg.relaxation_type_down = Relaxation::Chebyshev; // symmetric, cheap
