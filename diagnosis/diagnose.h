@@ -49,142 +49,12 @@
 #include "diagnosis/observation.h"
 #include "diagnosis/residuals.h"
 #include "maps/resistance_map.h"
+#include "diagnosis/options.h"
+#include "diagnosis/runs.h"
 #include "system/parameters.h"
 
 namespace rectify::diagnosis
 {
-  struct DiagnoseOptions
-  {
-    double              training_fraction  = 0.75;
-    /// CVODE's: its error (1e-4 of a signal's swing) stays far below 1 % noise,
-    /// and each fit runs the model some twenty times per candidate.
-    double              relative_tolerance = 1e-5;
-    double              bic_threshold      = 10.0;
-    /// A named effect must close at least this share of the gap above the
-    /// noise (sqrt(rms^2 - 1)) that the calibrated baseline leaves.
-    double              min_gap_closed     = 0.5;
-    int                 grid_points        = 9;  ///< coarse start grid per effect parameter
-    int                 max_evaluations    = 40; ///< BOBYQA's, per candidate
-    double              gain_range         = 0.1; ///< nuisance force gain in 1 +- this
-    /// Where each record starts: "auto" (the one of rest, record,
-    /// record-mean (no-flow runs), steady and periodic whose model fits the
-    /// record's first two cycles best, with the case's baseline; earlier
-    /// ones win within 5 %, a recorded state against a run-in within 20 %),
-    /// or one of them for every run (observation.h).
-    std::string         start              = "auto";
-    double              lead_cycles        = 10;  ///< run-in before a periodic start (steady: 3)
-    /// Cycles at the start of each record left out of every residual
-    /// (the estimated start state is approximate); < 0: 0 for a rest start,
-    /// otherwise the model's memory of its start (settle), at least 1.
-    double              settling_cycles    = -1;
-    /// The model's memory of its start ends at the first cycle from which
-    /// its runs from two starts differ by at most this many noise units
-    /// (RMS over each later training cycle): settle.
-    double              settling_tolerance = 1.0;
-    bool                repair_outliers    = true; ///< find isolated spikes, report and replace them
-    /// Data and model are compared within the first `harmonics` harmonics of
-    /// the pumping frequency (both band-limited at (harmonics + 0.5) f): fast
-    /// ringing and flutter, which two models of one pump reproduce
-    /// differently and which a measured drive's noise sets, do not decide.
-    /// 0: the whole band.
-    double              harmonics          = 10;
-    /// "auto" (harmonics_auto): in a loaded run the band also stops below
-    /// half the outlet reed's natural frequency (reed_frequency_Hz), at
-    /// least one harmonic: the valves are off their seats for most of every
-    /// cycle and flutter near that frequency, which two models of one reed
-    /// (one mode or two, an exact or a penalty seat) reproduce with other
-    /// phases. In a no-flow run the valves open briefly and the band stays.
-    bool                harmonics_auto     = true;
-    /// A baseline parameter ([uncertain] in the case, and the force gain)
-    /// whose standard error at the baseline fit exceeds this share of its
-    /// (log) range is reported and held at that fit's value, not traded
-    /// against an effect.
-    double              identifiability_sd = 0.15;
-    /// A named effect's parameter is reported as determined by the record
-    /// when its standard error (with the baseline's uncertain parameters
-    /// unknown within their ranges) is at most this share of its value.
-    double              determined_relative_sd = 0.2;
-    /// A residual left above this many noise units after the fit means model
-    /// error beyond the library (the verdict says so).
-    double              beyond_library_noise_units = 2.0;
-    /// Where nothing is named and the calibrated baseline holds a quantity
-    /// a candidate shares with it (Effect::Combination) at more than this
-    /// many times the case's, the verdict says the candidate would look
-    /// the same (DiagnosisResult::absorbed_by_baseline).
-    double              absorbed_factor = 2.0;
-    int                 refine_passes      = 3;  ///< at most, after naming (see diagnose.cpp)
-    /// A named effect's fit moves to a side of its profile that fits
-    /// better by more than bic_threshold, refitted and profiled again, at
-    /// most this many times (0: never; the profile only reports it).
-    int                 max_profile_moves  = 2;
-    /// The candidates (none too) are fitted and compared on at most this
-    /// many training cycles in all, after each run's settling, the same
-    /// number from each run that has them (screening_cycles_per_run); the
-    /// named effect is then refitted on every training cycle. 0: every
-    /// training cycle. A single record of the study's length (16 cycles,
-    /// 12 of them training) is compared whole.
-    double              compared_cycles    = 32;
-    /// Per measured signal: its sensor's lowest bandwidth [Hz]. Once the
-    /// model is chosen, each such signal's lag is fitted between that and
-    /// an ideal sensor (sensors.h) and the residual reported with it.
-    /// Empty: ideal sensors.
-    std::map<std::string, double> sensor_lowest_bandwidth_Hz;
-    std::vector<std::string> effects;              ///< candidates; empty: the whole library
-    unsigned            threads = 0;               ///< 0: all cores
-    int                 rounds  = 1;               ///< 2: look for a second effect
-    std::function<void(const std::string &)> progress; ///< one line per finished candidate, named fit refit, left-out try and profile
-    /// Where each candidate's fit is kept the moment it ends (a folder:
-    /// DIR/diagnosis-partial.csv and .json, common/checkpoint.h; empty:
-    /// nowhere). A diagnosis started again with the same fingerprint takes
-    /// the fits kept there instead of fitting those candidates again: an
-    /// interrupted run resumes. The fingerprint holds what makes the fits
-    /// the same (the tool's revision, every option, the inputs' hashes); kept
-    /// fits with another are discarded, and so are they all where a round's
-    /// `none`, fitted again first, differs from the kept one in any bit.
-    std::filesystem::path checkpoint_dir;
-    nlohmann::json        checkpoint_fingerprint;
-  };
-
-  /// One run with its setup and normalisation.
-  struct RunCase
-  {
-    MeasuredRun                   run;
-    RunSetup                      setup;
-    std::map<std::string, double> scales; ///< residual scale per signal (noise, see above)
-    std::map<std::string, double> swings; ///< RMS about the mean per signal (for words)
-    double                        drive_noise_sd = 0; ///< estimated from the drive
-    std::size_t                   n_train = 0; ///< samples the fit sees (end of the training part)
-    std::size_t                   n_skip  = 0; ///< settling samples left out at the start
-    /// The model's runs from its start and from another (its periodic
-    /// orbit; a periodic start: the recorded state), RMS difference per
-    /// training cycle in noise units (settle; empty where not computed)
-    std::vector<double>           start_memory;
-    std::string                   settling_reason; ///< why n_skip is what it is
-    StartState                    start   = StartState::rest;
-    double                        lead_cycles = 0;   ///< simulated before the record
-    /// Its state at the first sample (StartState::record), read once from
-    /// the record before it is band-limited.
-    RecordedState                 recorded;
-    /// Its cleaned drive (measured_drive), made once from `run` by
-    /// make_run_case: remake it if `run` changes.
-    std::shared_ptr<const system::Drive> drive;
-    nlohmann::json                start_scores;      ///< residual of each start tried (auto)
-    /// "rest with the case's baseline, record with valve_leakage's fit" when
-    /// the start was chosen again, with the named effect, and changed (a
-    /// later round appends ", periodic with its effect's fit")
-    std::string                   start_revised;
-    std::vector<Outlier>          outliers;          ///< found and replaced in the record
-    double                        band_Hz = 0;        ///< the comparison's band (0: whole)
-    double                        harmonics = 0;      ///< harmonics compared (0: every sample)
-    std::string                   band_reason;        ///< why the band stops where it does
-    double                        band_fraction = 1;  ///< of the white noise's power inside it
-    std::map<std::string, double> white_sd;           ///< each signal's white noise (whole band)
-    std::map<std::string, double> cyclic_sd;          ///< its cycle-to-cycle scatter inside the band
-
-    /// The simulation options for this run (start, lead).
-    SimulationOptions simulation(double relative_tolerance) const;
-  };
-
   /// A baseline parameter at the baseline fit ("none" with every uncertain
   /// parameter and the force gain) and whether the data determine it.
   struct BaselineParameter
@@ -436,13 +306,6 @@ namespace rectify::diagnosis
                                                    const system::SystemParameters &case_parameters,
                                                    const system::SystemParameters &fitted, double factor);
 
-  /// Training cycles per run (after each run's settling, n_skip) that the
-  /// candidates are compared on, so that at most `cap` are compared in
-  /// all: the same number from every run that has that many, the whole
-  /// training part of the shorter ones, at least 3. 0 (every training
-  /// cycle) where the runs hold no more than `cap`, or `cap` is 0.
-  double screening_cycles_per_run(const std::vector<RunCase> &runs, double cap);
-
   /// The valleys of a candidate's start grid: point i lies on grid line
   /// line[i] (one line per baseline the effect's parameter is stepped
   /// from; -1: not on a grid) at position at[i], with objective value[i].
@@ -456,87 +319,6 @@ namespace rectify::diagnosis
   /// position 0 for one the case leaves out (off_at_zero).
   double uncertain_from_unit(const system::UncertainParameter &q, double u);
   double uncertain_to_unit(const system::UncertainParameter &q, double v);
-
-  /// Prepares a run: its frequency (given, or from the drive) and scales.
-  /// Compared within `harmonics` harmonics (0: every sample); with
-  /// `reed_frequency_Hz` > 0 (DiagnoseOptions::harmonics_auto, loaded runs)
-  /// within at most those below half of it, and at least one.
-  RunCase make_run_case(MeasuredRun run, system::Scenario scenario, double frequency_Hz,
-                        double training_fraction, bool repair_outliers = true, double harmonics = 0,
-                        double reed_frequency_Hz = 0);
-
-  /// The reed frequency make_run_case limits the band with: the outlet
-  /// reed's natural frequency for a loaded run with options.harmonics_auto,
-  /// else 0 (no limit).
-  double band_reed_frequency_Hz(const system::SystemParameters &p, system::Scenario scenario,
-                                const DiagnoseOptions &options);
-
-  /// The reed's second bending mode in the baseline a diagnosis starts from.
-  struct BaselineSecondMode
-  {
-    double      frequency_Hz = 0; ///< 0: none (one mode)
-    std::string reason;           ///< where the value comes from, in words
-    /// "4261 Hz, <reason>", or the reason alone when there is none.
-    std::string text() const
-    {
-      return frequency_Hz > 0 ? format_number(std::round(frequency_Hz)) + " Hz, " + reason : reason;
-    }
-  };
-
-  /// `choice` (diagnose --reed-second-mode): "case" keeps the case's value;
-  /// a number [Hz] sets it (above the first mode, InputError otherwise);
-  /// "auto" keeps the case's where it gives one and otherwise, in a loaded
-  /// run, gives the reed a uniform cantilever's second mode at
-  /// (4.694 / 1.875)^2 = 6.267 x its first: off its seat for most of every
-  /// cycle, a real reed's second mode shows in a loaded record and, absent
-  /// from the baseline, is named as if it were missing physics. In a no-flow
-  /// run (valves shut most of the time) auto keeps the case's.
-  BaselineSecondMode baseline_second_mode(const system::SystemParameters &p, system::Scenario scenario,
-                                          const std::string &choice);
-
-  /// Harmonics compared for a run at `frequency_Hz` (make_run_case): at most
-  /// `harmonics`, and with reed_frequency_Hz > 0 at most those at or below
-  /// half of it, at least one.
-  double compared_harmonics(double harmonics, double frequency_Hz, double reed_frequency_Hz);
-
-
-  /// Sets each run's start state (options.start; "auto": the best of the
-  /// four over the record's first two cycles with the model `base`) and
-  /// its settling window.
-  void choose_start(const system::SystemParameters &base, const system::ValveMaps &map,
-                    std::vector<RunCase> &runs, const DiagnoseOptions &options, unsigned threads = 1);
-
-  /// The first of `per_cycle`'s cycles from which every later value is at
-  /// most `tolerance`, kept within [min_cycles, max_cycles] (max_cycles if
-  /// the last is above it).
-  std::size_t settled_from(const std::vector<double> &per_cycle, double tolerance, std::size_t min_cycles,
-                           std::size_t max_cycles);
-
-  /// Whether the model's runs from two starts, `per_cycle` apart (noise
-  /// units, RMS per training cycle), meet: within `tolerance` in the last
-  /// cycle, or closer there than half their largest difference (they meet
-  /// later: a slow mode). Otherwise they are taken to be on two orbits.
-  bool runs_meet(const std::vector<double> &per_cycle, double tolerance);
-
-  /// Sets the settling window of each run that does not start at rest
-  /// (options.settling_cycles < 0) from the model's memory of its start:
-  /// `base` run from the run's start and from another (its periodic orbit;
-  /// a periodic start: the recorded state) over the training part; the
-  /// window ends where the two agree within options.settling_tolerance
-  /// noise units in every later cycle (the runs' scales), at least one
-  /// cycle and at most half the training part (the most also where they
-  /// have not met by the end but have come half-way together: runs_meet).
-  /// Runs that stay further apart (two orbits) leave one cycle. An
-  /// estimated start state is wrong in what the record does not show; its
-  /// error fades as fast as the model forgets where it started
-  /// (docs/diagnosis-history.md, "The start's memory", "Runs that meet later").
-  void settle(const system::SystemParameters &base, const system::ValveMaps &map, std::vector<RunCase> &runs,
-              const DiagnoseOptions &options, unsigned threads = 1);
-
-  /// Sets each run's residual scales (noise) with the model `base`, the
-  /// runs simulated `threads` at once.
-  void calibrate_noise(const system::SystemParameters &base, const system::ValveMaps &map,
-                       std::vector<RunCase> &runs, double relative_tolerance, unsigned threads = 1);
 
   /// Calibrates the runs' noise (calibrate_noise) and runs the workflow.
   DiagnosisResult diagnose(const system::SystemParameters &base, const system::ValveMaps &map,

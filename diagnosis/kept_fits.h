@@ -1,0 +1,56 @@
+// The checkpoint of a diagnosis (DiagnoseOptions::checkpoint_dir): each
+// candidate's fit kept the moment it ends, so that an interrupted diagnosis
+// started again with the same fingerprint takes them instead of fitting
+// those candidates again.
+//
+// Takes: the options (folder, fingerprint), the round's fits as they end.
+// Gives: the fits an interrupted run of the same diagnosis kept. The fits of
+// one round are independent of each other and of the cores they ran on: a
+// kept fit and its predictions made again from its point are what fitting
+// it again would give, to the last bit.
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <optional>
+#include <string>
+#include <utility>
+
+#include <nlohmann/json.hpp>
+
+#include "common/checkpoint.h"
+#include "diagnosis/diagnose.h"
+
+namespace rectify::diagnosis
+{
+  class FitStore
+  {
+  public:
+    /// Opens (or starts) the kept fits in o.checkpoint_dir; discards them
+    /// where another diagnosis (fingerprint) kept them or they are
+    /// unreadable; `say` gets one line for each such event.
+    FitStore(const DiagnoseOptions &o, const std::function<void(const std::string &)> &say);
+
+    /// The fit of `effect` kept in `round`, if any
+    std::optional<CandidateResult> find(int round, const std::string &effect) const;
+
+    /// Keeps a finished fit (thread-safe)
+    void keep(int round, const CandidateResult &c);
+
+    /// The round's none, fitted again: the kept fits stand only where the
+    /// kept none is the same to the last bit (else the inputs differ in a
+    /// way the fingerprint does not hold: a map set rewritten in place)
+    void check_none(int round, const CandidateResult &none);
+
+  private:
+    void discard(const std::string &why);
+    void open();
+
+    std::filesystem::path                                  dir_;
+    nlohmann::json                                         fingerprint_;
+    std::function<void(const std::string &)>               say_;
+    std::optional<Checkpoint>                              file_;
+    std::map<std::pair<int, std::string>, CandidateResult> kept_;
+  };
+} // namespace rectify::diagnosis
