@@ -44,6 +44,8 @@ namespace rectify::app
 
   /// `synth`, `diagnose` (diagnosis/).
   void register_diagnosis_commands(CLI::App &app);
+  /// `synth` (cmd_synth.cpp; registered with the diagnosis's commands)
+  void register_synth_command(CLI::App &app);
 
   /// `design` (design/): the map set of a valve.
   void register_design_commands(CLI::App &app);

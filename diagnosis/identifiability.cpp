@@ -363,9 +363,7 @@ namespace rectify::diagnosis
   /// residual over such a parameter is a comb of basins (the passage's
   /// ringing sets the phase of each valve event): a trust region from
   /// off does not cross it, one start along the range can end in the
-  /// wrong tooth (coil_dynamics-1 on the bench: from 1e5 the fit stays at
-  /// 1.2e5, 2.89 noise units; from 3e6 it ends at 3.1e6, 6.13; from 2.5e5
-  /// or 7.1e5 at 1.2e6, 1.17). So the model is refitted from
+  /// wrong tooth. So the model is refitted from
   /// `left_out_starts` points spread along its range, every one refined
   /// to the end (all at once on `threads`), and the best is kept where
   /// its BIC beats the fit without it (a record without it keeps it off,
@@ -388,9 +386,8 @@ namespace rectify::diagnosis
         if (fitted.rms_train <= 1.0)
           {
             // nothing above the noise left for it to explain: a BIC gain
-            // there is the noise's own structure, and its tries the
-            // longest step of a loaded record (orifice_flow-1 on the
-            // bench: 0.48 -> 0.456 noise units, 47 s)
+            // there is the noise's own structure, and its tries would be
+            // the longest step of a loaded record
             char buf[160];
             std::snprintf(buf, sizeof buf,
                           "not tried: the named fit leaves no gap above the noise (training RMS %.3g noise "

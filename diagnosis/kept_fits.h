@@ -20,10 +20,16 @@
 #include <nlohmann/json.hpp>
 
 #include "common/checkpoint.h"
-#include "diagnosis/diagnose.h"
+#include "diagnosis/options.h"
+#include "diagnosis/results.h"
 
 namespace rectify::diagnosis
 {
+  /// The fits DiagnoseOptions::checkpoint_dir holds (whole rows), and
+  /// their removal (the diagnosis's results are written)
+  std::size_t kept_fits(const std::filesystem::path &dir);
+  void        remove_checkpoint(const std::filesystem::path &dir);
+
   class FitStore
   {
   public:

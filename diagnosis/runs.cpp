@@ -46,10 +46,9 @@ namespace rectify::diagnosis
       }
     if (fc > 0)
       return {fc, "the case's [reed] second_mode_frequency_Hz"};
-    // Every run, no-flow too: a one-mode reed left 4 noise units of white
-    // noise on the bench's no-flow records with no hidden effect, where the
-    // same baseline with this mode left 1.6-2.0 (docs/diagnosis-history.md, "The
-    // second mode in no-flow records").
+    // Every run, no-flow too: a real reed's second mode shows in no-flow
+    // records as well, and a one-mode baseline leaves it as a residual
+    // far above the noise.
     constexpr double uniform_cantilever = (4.6941 / 1.8751) * (4.6941 / 1.8751);
     return {uniform_cantilever * f1, "a uniform cantilever's, 6.267 x the first mode (" + f1_text +
                                        " Hz): a real reed has one, and it shows in the valve's opening, " +
@@ -206,8 +205,7 @@ namespace rectify::diagnosis
     // in this order of preference: a later one must fit 5 % better. The
     // high side at the first cycle's mean pressure only in no-flow runs,
     // where the high side is closed (in a loaded run it follows the load
-    // through the cycle): docs/diagnosis-history.md, "A line's ringing at the
-    // record's first sample".
+    // through the cycle).
     std::vector<StartState> tried{StartState::rest, StartState::record, StartState::record_mean,
                                   StartState::steady, StartState::periodic};
     if (std::any_of(runs.begin(), runs.end(),

@@ -144,8 +144,7 @@ namespace rectify::diagnosis
   /// have not met by the end but have come half-way together: runs_meet).
   /// Runs that stay further apart (two orbits) leave one cycle. An
   /// estimated start state is wrong in what the record does not show; its
-  /// error fades as fast as the model forgets where it started
-  /// (docs/diagnosis-history.md, "The start's memory", "Runs that meet later").
+  /// error fades as fast as the model forgets where it started.
   void settle(const system::SystemParameters &base, const system::ValveMaps &map, std::vector<RunCase> &runs,
               const DiagnoseOptions &options, unsigned threads = 1);
 

@@ -23,11 +23,30 @@
 #include <thread>
 #include <vector>
 
-#include "diagnosis/diagnose.h"
+#include "diagnosis/effect.h"
+#include "diagnosis/options.h"
+#include "diagnosis/results.h"
+#include "diagnosis/runs.h"
+#include "maps/resistance_map.h"
 
 namespace rectify::diagnosis
 {
   using Clock = std::chrono::steady_clock;
+
+  /// The valleys of a candidate's start grid: point i lies on grid line
+  /// line[i] (one line per baseline the effect's parameter is stepped
+  /// from; -1: not on a grid) at position at[i], with objective value[i].
+  /// A point on a line is a valley where no neighbour on its line (at[i]
+  /// +- 1) is lower; points off the grid are not.
+  std::vector<bool> grid_valleys(const std::vector<int> &line, const std::vector<int> &at,
+                                 const std::vector<double> &value);
+
+  /// An [uncertain] parameter <-> its position in [0, 1] (log over its
+  /// bounds); the value always lies within its bounds, or is 0 at
+  /// position 0 for one the case leaves out (off_at_zero).
+  double uncertain_from_unit(const system::UncertainParameter &q, double u);
+  double uncertain_to_unit(const system::UncertainParameter &q, double v);
+
 
   inline double seconds_since(Clock::time_point start)
   {
@@ -217,10 +236,8 @@ namespace rectify::diagnosis
       const double dt = (t.back() - t.front()) / static_cast<double>(t.size() - 1);
       // the cycles' samples and one more, as the quotient's rounding falls
       // (dt is read off the time column): a window of N cycles of m
-      // samples holds N m or N m + 1. Rounding it to N m exactly was tried
-      // (docs/diagnosis-history.md, "Long records screened"): the ringing search's
-      // 3- and 6-cycle windows lost their sample, and the short hose's
-      // line fit (tests/foreign_bench.sh line-short) fell into another basin
+      // samples holds N m or N m + 1: the last sample of a short window
+      // (the ringing search's 3 and 6 cycles) stays in it
       const auto   n  = static_cast<std::size_t>(horizon_cycles / (rc.setup.frequency_Hz * dt)) + 1;
       return std::min(rc.n_train, rc.n_skip + n);
     }

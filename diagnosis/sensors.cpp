@@ -160,8 +160,7 @@ namespace rectify::diagnosis
             lag.heldout_lagged = std::sqrt(fit.squared(tau, true).first / static_cast<double>(h_n));
           }
         // a lag that the held-out samples do not confirm has taken up what
-        // does not repeat (a valve's flutter: none-3's outlet valve on the
-        // bench, 3.34 -> 2.93 noise units in training, 0.79 -> 1.02 held out)
+        // does not repeat (a valve's flutter)
         lag.kept = !(lag.heldout_lagged > lag.heldout_ideal);
         if (lag.kept && tau > 0)
           for (std::size_t r = 0; r < runs.size(); ++r)

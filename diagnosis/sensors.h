@@ -11,8 +11,7 @@
 // sensor, to the final model's signals on the training part of the records
 // (one bandwidth per signal, shared by every run), and applies it. It needs
 // no run of the model: the lag acts on the model's output. Nothing the
-// diagnosis decides or fits depends on it; only the residual it reports
-// (docs/diagnosis-history.md, "The sensors' lags").
+// diagnosis decides or fits depends on it; only the residual it reports.
 #pragma once
 
 #include <map>
@@ -20,7 +19,8 @@
 #include <vector>
 
 #include "common/case_file.h"
-#include "diagnosis/diagnose.h"
+#include "diagnosis/results.h"
+#include "diagnosis/runs.h"
 
 namespace rectify::diagnosis
 {

@@ -143,6 +143,7 @@ TEST(MeasuredRun, BadDataNamesFileRowAndColumn)
 #include "model_helpers.h"
 #include "common/case_edit.h"
 #include "diagnosis/diagnose.h"
+#include "diagnosis/search.h" // grid_valleys
 #include "diagnosis/effect.h"
 #include "diagnosis/observation.h"
 #include "diagnosis/residuals.h"

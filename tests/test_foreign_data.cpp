@@ -18,6 +18,7 @@
 #include "cli_helpers.h"
 #include "common/case_file.h"
 #include "diagnosis/diagnose.h"
+#include "diagnosis/search.h" // uncertain_from_unit
 #include "diagnosis/effect.h"
 #include "diagnosis/measured_run.h"
 #include "diagnosis/observation.h"

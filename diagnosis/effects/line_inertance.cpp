@@ -23,8 +23,8 @@ namespace rectify::diagnosis
   {
     constexpr double off_below = 1e4; // the range's lower end: there the line is off
     // A hose carries its waves: 12 pi sections (its lowest three modes
-    // within 0.3, 1.1 and 2.3 % of a continuous line's; docs/diagnosis-history.md,
-    // "A hose on the bench"), whatever the case gives its own short line
+    // within 0.3, 1.1 and 2.3 % of a continuous line's), whatever the case
+    // gives its own short line
     // (the outlet passage, one lumped section in the reference case).
     constexpr long hose_sections = 12;
     return std::make_shared<Effect>(

@@ -13,9 +13,7 @@ namespace rectify::diagnosis
       "high-frequency ringing of the valve opening (and the outlet pressure) at each opening, "
       "at the second mode's frequency, above the harmonics the first mode explains",
       // 17 start points: the residual has narrow basins over the frequency
-      // (the mode's ringing after each opening); from 9, a bench record's
-      // 2053 Hz mode was fitted at 3026 Hz or 1773 Hz depending on round-off
-      // (docs/diagnosis-history.md, "Faster, and the study rerun")
+      // (the mode's ringing after each opening), which 9 points can miss
       std::vector<EffectParameter>{{"reed", "second_mode_frequency_Hz", 1500.0, 9000.0, true,
                                     "second bending mode's natural frequency", 17}},
       [](std::span<const double> v, system::SystemParameters &p) {
