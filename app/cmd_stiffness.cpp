@@ -70,11 +70,9 @@ namespace rectify::app
                   c.secant_stiffness_N_per_m, c.root_stress_ratio, c.tip_shortening_m * 1e3);
     }
 
-    void stiffness_command(const StiffnessOptions &o)
+    void echo_stiffness(const StiffnessOptions &o, const StiffnessParameters &p)
     {
-      const CaseFile file = load_case(o.case_path);
-      const auto     p    = StiffnessParameters::from_case(file);
-      const auto    &s    = p.settings;
+      const auto &s = p.settings;
       echo_settings("stiffness",
                     {{"case", o.case_path},
                      {"reed [m]", format_number(p.geometry.reed_length_m) + " x " +
@@ -91,20 +89,11 @@ namespace rectify::app
                                 std::to_string(s.cells_through_thickness) + " cells, Q" +
                                 std::to_string(s.fe_degree)},
                      {"out", o.out_dir}});
-      const std::filesystem::path out(o.out_dir);
-      OutputLock                  lock;
-      lock.acquire(out);
-      SolveOptions so;
-      so.vtu_file          = out / "reed.vtu";
-      // Beyond small-deflection theory at the stop's lift: checked there.
-      const double lift = p.geometry.stop_lift_m();
-      if (lift > s.max_linear_deflection_ratio * p.geometry.reed_length_m)
-        so.large_deflection_opening_m = lift;
-      const auto    r      = solve_reed(p, so);
-      const ReedBounds b      = reed_bounds(p);
-      const InFluid fluid  = in_fluid(r, b, s.added_mass_factor);
+    }
 
-      write_file_atomic(out / "shape.csv", shape_csv(r, p));
+    /// loads.csv and the load levels as JSON.
+    nlohmann::json write_loads(const StiffnessResult &r, const std::filesystem::path &out)
+    {
       CsvTable loads({"level", "force_N", "tip_deflection_m", "tip_center_deflection_m",
                       "deflection_ratio", "root_stress_beam_Pa", "small_deflection"});
       nlohmann::json levels = nlohmann::json::array();
@@ -121,13 +110,13 @@ namespace rectify::app
                             {"small_deflection", l.small_deflection}});
         }
       loads.write(out / "loads.csv");
-      nlohmann::json freqs = nlohmann::json::array(), kinds = nlohmann::json::array();
-      for (const auto &m : r.modes)
-        {
-          freqs.push_back(m.frequency_Hz);
-          kinds.push_back(m.kind);
-        }
+      return levels;
+    }
 
+    /// The FE shape beside the beam's (shape-beam.csv, shape.png); whether it was plotted.
+    bool plot_shape(const StiffnessParameters &p, const std::filesystem::path &out)
+    {
+      const auto &s = p.settings;
       // The "beam" shape of the reference case, to plot beside ours.
       CsvTable beam({"s_m", "phi_beam"});
       {
@@ -140,13 +129,27 @@ namespace rectify::app
           }
         beam.write(out / "shape-beam.csv");
       }
-      const bool plotted = render_plot(
+      return render_plot(
         out / "shape",
         {{"Reed underside under the " + to_string(s.load) + " load, unit tip deflection",
           "distance from the clamp [mm]", "phi", false, false,
           {{out / "shape.csv", "s_m", "phi", "FE, mean across the width", "lines", 1e3, 1},
            {out / "shape.csv", "s_m", "phi_centerline", "FE, centre line", "lines", 1e3, 1},
            {out / "shape-beam.csv", "s_m", "phi_beam", "beam, point load at the port centre", "lines", 1e3, 1}}}});
+
+    }
+
+    nlohmann::json stiffness_summary(const StiffnessOptions &o, const StiffnessParameters &p, const StiffnessResult &r,
+                                     const ReedBounds &b, const InFluid &fluid, const nlohmann::json &levels,
+                                     bool plotted)
+    {
+      const auto &s = p.settings;
+      nlohmann::json freqs = nlohmann::json::array(), kinds = nlohmann::json::array();
+      for (const auto &m : r.modes)
+        {
+          freqs.push_back(m.frequency_Hz);
+          kinds.push_back(m.kind);
+        }
 
       std::size_t n_small = 0;
       double      last_small_level = 0;
@@ -206,8 +209,13 @@ namespace rectify::app
           {"frequency_eq321_Hz", "sqrt(k / (2.75 (m_plate + m_added))) / 2 pi: the thesis's eq. 3.21"}}},
         {"files", {"reed.vtu", "shape.csv", "loads.csv", plotted ? "shape.png" : ""}}};
       summary["large_deflection_at_stop"] = large_deflection_json(r, p);
-      write_json(out / "summary.json", summary);
+      return summary;
+    }
 
+    void print_stiffness(const StiffnessParameters &p, const StiffnessResult &r, const ReedBounds &b,
+                         const InFluid &fluid)
+    {
+      const auto &s = p.settings;
       std::printf("k = %.6g N/m (tip face mean; tip centre %.6g); beam %.6g, plate %.6g; thesis 6650\n",
                   r.k_N_per_m, r.k_center_N_per_m, b.k_beam, b.k_plate);
       for (std::size_t i = 0; i < r.modes.size(); ++i)
@@ -226,6 +234,31 @@ namespace rectify::app
                   r.root_stress_per_opening_Pa_per_m * 1e-12, r.root_stress_beam_per_opening_Pa_per_m * 1e-12,
                   r.root_stress_concentration, r.second_mode_root_stress_per_opening_Pa_per_m * 1e-12);
       print_large_deflection(r, p);
+    }
+
+    void stiffness_command(const StiffnessOptions &o)
+    {
+      const CaseFile file = load_case(o.case_path);
+      const auto     p    = StiffnessParameters::from_case(file);
+      const auto    &s    = p.settings;
+      echo_stiffness(o, p);
+      const std::filesystem::path out(o.out_dir);
+      OutputLock                  lock;
+      lock.acquire(out);
+      SolveOptions so;
+      so.vtu_file          = out / "reed.vtu";
+      // Beyond small-deflection theory at the stop's lift: checked there.
+      const double lift = p.geometry.stop_lift_m();
+      if (lift > s.max_linear_deflection_ratio * p.geometry.reed_length_m)
+        so.large_deflection_opening_m = lift;
+      const auto       r     = solve_reed(p, so);
+      const ReedBounds b     = reed_bounds(p);
+      const InFluid    fluid = in_fluid(r, b, s.added_mass_factor);
+      write_file_atomic(out / "shape.csv", shape_csv(r, p));
+      const auto levels  = write_loads(r, out);
+      const bool plotted = plot_shape(p, out);
+      write_json(out / "summary.json", stiffness_summary(o, p, r, b, fluid, levels, plotted));
+      print_stiffness(p, r, b, fluid);
       std::printf("%zu dofs, %.2f s; wrote %s\n", r.n_dofs, r.wall_time_s, (out / "summary.json").c_str());
     }
     // ---------------------------------------------------------- map-stiffness

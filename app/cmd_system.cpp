@@ -446,19 +446,13 @@ namespace rectify::app
       double                   startup_rtol     = 0;
     };
 
-    void sweep(const SweepCommandOptions &o)
+    /// The sweep's options from the command's, checked; `names` gets the series.
+    system::SweepOptions sweep_options(const SweepCommandOptions &o, const system::SystemParameters &p,
+                                       system::Scenario scenario, std::vector<std::string> &names)
     {
-      const CaseFile file     = load_case(o.case_path);
-      const auto     p        = o.parameters(file);
-      const auto     scenario = system::parse_scenario(o.scenario);
-      if (p.drive.waveform != "sine")
-        throw InputError(file.where("drive", "waveform") +
-                         ": a sweep needs the sine drive (a recorded waveform has one frequency)");
-      if (o.cycles == 0)
-        throw InputError("--cycles 0: must be >= 1");
       system::SweepOptions s = system::default_sweep_options(
         p, scenario, system::frequency_grid(o.from_Hz, o.to_Hz, o.n, o.spacing == "log"), o.cycles);
-      std::vector<std::string> names = o.series;
+      names = o.series;
       if (o.ideal_valves)
         names = {"ideal"};
       if (names.empty())
@@ -479,6 +473,12 @@ namespace rectify::app
       s.chains                 = o.chains;
       s.quiet                  = o.quiet;
 
+      return s;
+    }
+
+    void echo_sweep(const SweepCommandOptions &o, const system::SystemParameters &p, const system::SweepOptions &s,
+                    const std::vector<std::string> &names)
+    {
       std::string series_list;
       for (const auto &n : names)
         series_list += (series_list.empty() ? "" : ", ") + n;
@@ -500,26 +500,24 @@ namespace rectify::app
                      {"chains", o.chains ? std::to_string(o.chains) + " (continuation)" : "none (every frequency from rest)"},
                      {"out", o.out_dir}});
 
-      const std::filesystem::path out(o.out_dir);
-      OutputLock                  lock;
-      lock.acquire(out);
-      const system::SweepResult r = system::run_sweep(p, s, out);
+    }
 
-      // Long table: every run with its diagnostics.
-      const bool  pressure = scenario == system::Scenario::no_flow;
-      std::string long_csv = system::sweep_point_csv_header() + "\n";
-      for (const auto &pt : r.points)
-        long_csv += system::to_csv_row(pt) + "\n";
-      write_file_atomic(out / "sweep-runs.csv", long_csv);
+    /// Per series its metric, standard errors, regimes, times and validity;
+    /// over every run the counts and totals summary.json reports.
+    struct SweepTally
+    {
+      nlohmann::json per_series = nlohmann::json::object();
+      long           total_steps = 0;
+      std::size_t    n_unsettled = 0, n_periodic = 0, n_failed = 0;
+      nlohmann::json failures = nlohmann::json::array();
+      double         sum_cycles = 0, sum_wall = 0;
+    };
 
-      // Wide table for plotting: one column per series.
-      const std::string metric = pressure ? "stored_pressure_Pa" : "mean_velocity_m_per_s";
-      const std::size_t nf = s.frequencies_Hz.size();
-      nlohmann::json    per_series = nlohmann::json::object();
-      long              total_steps = 0;
-      std::size_t       n_unsettled = 0, n_periodic = 0, n_failed = 0;
-      nlohmann::json    failures = nlohmann::json::array();
-      double            sum_cycles = 0, sum_wall = 0;
+    SweepTally tally_sweep(const system::SweepResult &r, const std::vector<std::string> &names, std::size_t nf,
+                           const std::string &metric, bool pressure)
+    {
+      SweepTally t;
+      auto &[per_series, total_steps, n_unsettled, n_periodic, n_failed, failures, sum_cycles, sum_wall] = t;
       for (std::size_t si = 0; si < names.size(); ++si)
         {
           nlohmann::json values = nlohmann::json::array(), walls = nlohmann::json::array(),
@@ -550,11 +548,16 @@ namespace rectify::app
                                    {"settled", settled}};
           add_validity(per_series[names[si]], r.points, si * nf, nf);
         }
-      const auto columns = write_sweep_table(out / "sweep.csv", r.points, names, s.frequencies_Hz, metric);
-      const bool plotted = render_plot(out / "sweep", sweep_panels(out / "sweep.csv", names, columns, pressure,
-                                                                   o.spacing == "log"));
+      return t;
+    }
 
-      nlohmann::json summary = {
+    nlohmann::json sweep_summary(const SweepCommandOptions &o, const system::SystemParameters &p,
+                                 const system::SweepOptions &s, const system::SweepResult &r,
+                                 const std::vector<std::string> &names, const std::string &metric,
+                                 const SweepTally &t, bool plotted)
+    {
+      const auto &[per_series, total_steps, n_unsettled, n_periodic, n_failed, failures, sum_cycles, sum_wall] = t;
+      return {
         {"command", "sweep"},
         {"rectify_version", RECTIFY_VERSION},
         {"build", build_info()},
@@ -587,7 +590,42 @@ namespace rectify::app
                      "the next frequency of its chain starting from rest)"}}},
         {"parameters", p.to_json()},
         {"files", {"sweep.csv", "sweep-runs.csv", plotted ? "sweep.png" : "", plotted ? "sweep.svg" : ""}}};
-      write_json(out / "summary.json", summary);
+    }
+
+    void sweep(const SweepCommandOptions &o)
+    {
+      const CaseFile file     = load_case(o.case_path);
+      const auto     p        = o.parameters(file);
+      const auto     scenario = system::parse_scenario(o.scenario);
+      if (p.drive.waveform != "sine")
+        throw InputError(file.where("drive", "waveform") +
+                         ": a sweep needs the sine drive (a recorded waveform has one frequency)");
+      if (o.cycles == 0)
+        throw InputError("--cycles 0: must be >= 1");
+      std::vector<std::string>   names;
+      const system::SweepOptions s = sweep_options(o, p, scenario, names);
+      echo_sweep(o, p, s, names);
+      const std::filesystem::path out(o.out_dir);
+      OutputLock                  lock;
+      lock.acquire(out);
+      const system::SweepResult r = system::run_sweep(p, s, out);
+
+      // Long table: every run with its diagnostics.
+      const bool  pressure = scenario == system::Scenario::no_flow;
+      std::string long_csv = system::sweep_point_csv_header() + "\n";
+      for (const auto &pt : r.points)
+        long_csv += system::to_csv_row(pt) + "\n";
+      write_file_atomic(out / "sweep-runs.csv", long_csv);
+
+      // Wide table for plotting: one column per series.
+      const std::string metric = pressure ? "stored_pressure_Pa" : "mean_velocity_m_per_s";
+      const std::size_t nf     = s.frequencies_Hz.size();
+      const SweepTally  t      = tally_sweep(r, names, nf, metric, pressure);
+      const auto columns = write_sweep_table(out / "sweep.csv", r.points, names, s.frequencies_Hz, metric);
+      const bool plotted = render_plot(out / "sweep", sweep_panels(out / "sweep.csv", names, columns, pressure,
+                                                                   o.spacing == "log"));
+      write_json(out / "summary.json", sweep_summary(o, p, s, r, names, metric, t, plotted));
+      const auto &[per_series, total_steps, n_unsettled, n_periodic, n_failed, failures, sum_cycles, sum_wall] = t;
       std::printf("%zu runs (%zu resumed) in %.1f s; %zu periodic, %zu not settled; %.3g s CPU per cycle\n",
                   r.points.size(), r.n_resumed, r.wall_time_s, n_periodic, n_unsettled,
                   sum_wall / sum_cycles);
