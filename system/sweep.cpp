@@ -314,6 +314,260 @@ namespace rectify::system
     return s;
   }
 
+  namespace
+  {
+    /// Everything that changes a result: a resumed sweep takes the points a
+    /// previous one with this fingerprint finished.
+    nlohmann::json sweep_fingerprint(const SystemParameters &parameters, const SweepOptions &options)
+    {
+      nlohmann::json fingerprint = {{"scenario", to_string(options.scenario)},
+                                    {"current_pp_A", options.current_pp_A},
+                                    {"current_bias_A", options.current_bias_A},
+                                    {"settle", options.run.settle},
+                                    {"n_cycles", options.run.n_cycles},
+                                    {"settle_tolerance", options.run.settle_tolerance},
+                                    {"max_startup_cycles", options.run.max_startup_cycles},
+                                    {"relative_tolerance", options.run.relative_tolerance},
+                                    {"startup_relative_tolerance", options.run.startup_relative_tolerance},
+                                    {"absolute_tolerance_factor", options.run.absolute_tolerance_factor},
+                                    {"finite_difference_jacobian", options.run.finite_difference_jacobian},
+                                    {"chains", options.chains},
+                                    {"parameters", parameters.to_json()},
+                                    {"resistance_map_hash", file_hash(parameters.valves.resistance_map)}};
+      for (std::size_t v = 0; v < 2; ++v) // a map set's manifest holds its tables' hashes
+        if (!parameters.valves.map_set[v].empty())
+          fingerprint[v == 0 ? "outlet_map_set_hash" : "inlet_map_set_hash"] =
+            file_hash(std::filesystem::path(parameters.valves.map_set[v]) / "manifest.json");
+      return fingerprint;
+    }
+
+    /// One sweep: its checkpoint (the finished points and, with chains,
+    /// their end states), its chains of frequencies shared out over threads.
+    /// Continuation: each series' frequencies, ascending, in chains; within a
+    /// chain every frequency starts from the state its lower neighbour ended
+    /// in, its slow states (load velocity, high, low and accumulator
+    /// pressures) moved along the secant through the last two (a predictor).
+    /// Each frequency's end state is checkpointed beside its result, so a
+    /// resumed sweep continues exactly as an uninterrupted one would.
+    /// (Without chains every run starts from rest: no states are kept.)
+    class SweepRun
+    {
+    public:
+      SweepRun(const SystemParameters &parameters, const SweepOptions &options, const std::filesystem::path &out_dir)
+        : parameters(parameters)
+        , options(options)
+        , fingerprint(sweep_fingerprint(parameters, options))
+        , checkpoint(out_dir, "sweep-partial", fingerprint, sweep_point_csv_header())
+      {
+        for (const auto &row : checkpoint.finished_rows())
+          {
+            SweepPoint p;
+            if (parse_point(row, p))
+              done[key(p.series, p.frequency_Hz)] = p;
+          }
+        if (options.chains > 0)
+          {
+            states.emplace(out_dir, "sweep-states", fingerprint, state_csv_header());
+            for (const auto &row : states->finished_rows())
+              {
+                std::string key_text;
+                StartState  st;
+                if (parse_state(row, key_text, st))
+                  end_states[key_text] = std::move(st);
+              }
+          }
+        for (const auto &s : options.series)
+          for (auto &c : make_chains(s, options.frequencies_Hz, options.chains, options.run.n_cycles))
+            {
+              bool all_done = true;
+              for (double f : c.frequencies)
+                all_done = all_done && done.count(key(s.name, f));
+              if (!all_done)
+                chains.push_back(std::move(c));
+            }
+        std::stable_sort(chains.begin(), chains.end(), [](const Chain &a, const Chain &b) { return a.cost > b.cost; });
+      }
+
+      SweepResult run()
+      {
+        SweepResult result;
+        result.n_resumed          = done.size();
+        const std::size_t n_total = options.series.size() * options.frequencies_Hz.size();
+        progress.emplace("sweep", n_total, done.size(), options.quiet);
+        const unsigned n_threads = std::max(
+          1u, std::min<unsigned>(options.jobs ? options.jobs : std::thread::hardware_concurrency(),
+                                 static_cast<unsigned>(chains.size())));
+        std::vector<std::thread> threads;
+        for (unsigned t = 0; t < n_threads && !chains.empty(); ++t)
+          threads.emplace_back([this] { worker(); });
+        for (auto &t : threads)
+          t.join();
+        if (failure)
+          std::rethrow_exception(failure);
+        for (const auto &s : options.series)
+          for (double f : options.frequencies_Hz)
+            result.points.push_back(done.at(key(s.name, f)));
+        return result;
+      }
+
+    private:
+      void                      record(const SweepPoint &pt, const std::string &what);
+      std::optional<StartState> run_point(const SweepSeries &series, double frequency, const StartState *start);
+      void                      run_chain(const Chain &chain);
+      void                      worker();
+
+      const SystemParameters           &parameters;
+      const SweepOptions               &options;
+      const nlohmann::json              fingerprint;
+      Checkpoint                        checkpoint;
+      std::map<std::string, SweepPoint> done;
+      std::optional<Checkpoint>         states;
+      std::map<std::string, StartState> end_states; ///< of the runs finished before a resume
+      std::vector<Chain>                chains;
+      std::optional<Progress>           progress;
+      std::mutex                        mutex;
+      std::atomic<std::size_t>          next{0};
+      std::exception_ptr                failure;
+    };
+
+    /// A finished point: checkpointed, kept, reported.
+    void SweepRun::record(const SweepPoint &pt, const std::string &what)
+    {
+      checkpoint.append(to_csv_row(pt));
+      {
+        std::lock_guard<std::mutex> lock(mutex);
+        done[key(pt.series, pt.frequency_Hz)] = pt;
+      }
+      progress->step(what);
+    }
+
+    /// One run, checkpointed; returns its end state (a chain's next start),
+    /// none if the integrator failed: then the point is recorded as failed
+    /// (regime "failed: <why>", its numbers NaN) and the sweep goes on.
+    std::optional<StartState> SweepRun::run_point(const SweepSeries &series, double frequency,
+                                                  const StartState *start)
+    {
+    SystemParameters p = parameters;
+    p.reed.stiffness_N_per_m *= series.stiffness_factor;
+    p.reed.effective_mass_kg *= series.mass_factor;
+    Model model(p, load_valve_maps(p), series.valves, options.scenario,
+                Drive::sine(frequency, options.current_pp_A, options.current_bias_A));
+    RunResult r;
+    try
+      {
+        r = system::run(model, options.run, start);
+      }
+    catch (const InputError &)
+      {
+        throw; // the case's fault: every point would fail
+      }
+    catch (const std::runtime_error &e)
+      {
+        const SweepPoint pt = failed_point(series.name, frequency, e.what());
+        record(pt, series.name + " " + format_number(frequency) + " Hz: " + pt.regime);
+        return std::nullopt;
+      }
+    SweepPoint pt{series.name,
+                  frequency,
+                  r.stored_pressure_Pa,
+                  r.mean_velocity_m_per_s,
+                  r.settled,
+                  r.metric_stderr,
+                  r.regime,
+                  r.n_startup_cycles,
+                  r.n_measured_cycles,
+                  r.wall_time_s,
+                  r.volume_balance_rel_error,
+                  r.stats.steps,
+                  r.stats.rhs_evaluations,
+                  r.stats.jacobian_evaluations,
+                  r.stats.events,
+                  r.warnings.size()};
+    pt.set_validity(r);
+    // The state first: a point whose row is written always has its state.
+    if (states)
+      states->append(to_state_row(key(series.name, frequency), r.end_state));
+    char what[160];
+    std::snprintf(what, sizeof(what), "%s %.4g Hz: %s %.4g, %zu+%zu cycles, %.2f s",
+                  pt.series.c_str(), pt.frequency_Hz,
+                  options.scenario == Scenario::no_flow ? "p_str [Pa]" : "v [m/s]",
+                  options.scenario == Scenario::no_flow ? pt.stored_pressure_Pa :
+                                                          pt.mean_velocity_m_per_s,
+                  pt.startup_cycles, pt.measured_cycles, pt.wall_time_s);
+    record(pt, what);
+    return std::move(r.end_state);
+    }
+
+    /// A chain's frequencies in turn, each from its neighbour's end state
+    /// (or from rest: the first, one after a failure, one finished before a
+    /// resume without its state).
+    void SweepRun::run_chain(const Chain &chain)
+    {
+      // Two previous points of the chain (frequency, end state) for the predictor.
+      std::vector<std::pair<double, StartState>> previous;
+      for (double f : chain.frequencies)
+        {
+          std::optional<StartState> finished; // before a resume
+          {
+            std::lock_guard<std::mutex> lock(mutex);
+            if (failure)
+              return;
+            if (done.count(key(chain.series.name, f)))
+              {
+                const auto it = end_states.find(key(chain.series.name, f));
+                if (it == end_states.end())
+                  {
+                    previous.clear(); // no state: the next one starts from rest
+                    continue;
+                  }
+                finished = it->second;
+              }
+          }
+          std::optional<StartState> end;
+          if (finished)
+            end = std::move(*finished);
+          else if (previous.empty())
+            end = run_point(chain.series, f, nullptr);
+          else
+            {
+              const StartState start = predicted_start(previous, f, options.scenario);
+              end                    = run_point(chain.series, f, &start);
+            }
+          if (!end)
+            { // failed: the next frequency starts from rest
+              previous.clear();
+              continue;
+            }
+          previous.emplace_back(f, std::move(*end));
+          if (previous.size() > 2)
+            previous.erase(previous.begin());
+        }
+    }
+
+    void SweepRun::worker()
+    {
+      try
+        {
+          while (true)
+            {
+              const std::size_t i = next++;
+              if (i >= chains.size())
+                return;
+              run_chain(chains[i]);
+              std::lock_guard<std::mutex> lock(mutex);
+              if (failure)
+                return;
+            }
+        }
+      catch (...)
+        {
+          std::lock_guard<std::mutex> lock(mutex);
+          if (!failure)
+            failure = std::current_exception();
+        }
+    }
+  } // namespace
+
   SweepResult run_sweep(const SystemParameters &parameters, const SweepOptions &options,
                         const std::filesystem::path &out_dir)
   {
@@ -324,220 +578,8 @@ namespace rectify::system
       for (std::size_t j = 0; j < i; ++j)
         if (options.series[i].name == options.series[j].name)
           throw InputError("sweep: series '" + options.series[i].name + "' given twice");
-
-    // Everything that changes a result goes into the fingerprint.
-    nlohmann::json fingerprint = {{"scenario", to_string(options.scenario)},
-                                  {"current_pp_A", options.current_pp_A},
-                                  {"current_bias_A", options.current_bias_A},
-                                  {"settle", options.run.settle},
-                                  {"n_cycles", options.run.n_cycles},
-                                  {"settle_tolerance", options.run.settle_tolerance},
-                                  {"max_startup_cycles", options.run.max_startup_cycles},
-                                  {"relative_tolerance", options.run.relative_tolerance},
-                                  {"startup_relative_tolerance", options.run.startup_relative_tolerance},
-                                  {"absolute_tolerance_factor", options.run.absolute_tolerance_factor},
-                                  {"finite_difference_jacobian", options.run.finite_difference_jacobian},
-                                  {"chains", options.chains},
-                                  {"parameters", parameters.to_json()},
-                                  {"resistance_map_hash", file_hash(parameters.valves.resistance_map)}};
-    for (std::size_t v = 0; v < 2; ++v) // a map set's manifest holds its tables' hashes
-      if (!parameters.valves.map_set[v].empty())
-        fingerprint[v == 0 ? "outlet_map_set_hash" : "inlet_map_set_hash"] =
-          file_hash(std::filesystem::path(parameters.valves.map_set[v]) / "manifest.json");
-
-    // Resume: what a previous run with the same settings finished.
-    Checkpoint                        checkpoint(out_dir, "sweep-partial", fingerprint,
-                                                 sweep_point_csv_header());
-    std::map<std::string, SweepPoint> done;
-    for (const auto &row : checkpoint.finished_rows())
-      {
-        SweepPoint p;
-        if (parse_point(row, p))
-          done[key(p.series, p.frequency_Hz)] = p;
-      }
-
-    // Continuation: each series' frequencies, ascending, in chains; within a
-    // chain every frequency starts from the state its lower neighbour ended
-    // in, its slow states (load velocity, high, low and accumulator pressures)
-    // moved along the secant through the last two (a predictor). Each
-    // frequency's end state is checkpointed beside its result, so a resumed
-    // sweep continues exactly as an uninterrupted one would.
-    // (Without chains every run starts from rest: no states are kept.)
-    std::optional<Checkpoint>         states;
-    std::map<std::string, StartState> end_states; // of the runs finished before a resume
-    if (options.chains > 0)
-      {
-        states.emplace(out_dir, "sweep-states", fingerprint, state_csv_header());
-        for (const auto &row : states->finished_rows())
-          {
-            std::string key_text;
-            StartState  st;
-            if (parse_state(row, key_text, st))
-              end_states[key_text] = std::move(st);
-          }
-      }
-
-    std::vector<Chain> chains;
-    for (const auto &s : options.series)
-      for (auto &c : make_chains(s, options.frequencies_Hz, options.chains, options.run.n_cycles))
-        {
-          bool all_done = true;
-          for (double f : c.frequencies)
-            all_done = all_done && done.count(key(s.name, f));
-          if (!all_done)
-            chains.push_back(std::move(c));
-        }
-    std::stable_sort(chains.begin(), chains.end(),
-                     [](const Chain &a, const Chain &b) { return a.cost > b.cost; });
-
-    SweepResult result;
-    result.n_resumed = done.size();
-    const std::size_t n_total = options.series.size() * options.frequencies_Hz.size();
-    Progress          progress("sweep", n_total, done.size(), options.quiet);
-
-    std::mutex               mutex;
-    std::atomic<std::size_t> next{0};
-    std::exception_ptr       failure;
-    const unsigned           n_threads = std::max(
-      1u, std::min<unsigned>(options.jobs ? options.jobs : std::thread::hardware_concurrency(),
-                             static_cast<unsigned>(chains.size())));
-
-    // A finished point: checkpointed, kept, reported.
-    auto record = [&](const SweepPoint &pt, const std::string &what) {
-      checkpoint.append(to_csv_row(pt));
-      {
-        std::lock_guard<std::mutex> lock(mutex);
-        done[key(pt.series, pt.frequency_Hz)] = pt;
-      }
-      progress.step(what);
-    };
-
-    // One run, checkpointed; returns its end state (a chain's next start),
-    // none if the integrator failed: then the point is recorded as failed
-    // (regime "failed: <why>", its numbers NaN) and the sweep goes on.
-    auto run_point = [&](const SweepSeries &series, double frequency,
-                         const StartState *start) -> std::optional<StartState> {
-      SystemParameters p = parameters;
-      p.reed.stiffness_N_per_m *= series.stiffness_factor;
-      p.reed.effective_mass_kg *= series.mass_factor;
-      Model model(p, load_valve_maps(p), series.valves, options.scenario,
-                  Drive::sine(frequency, options.current_pp_A, options.current_bias_A));
-      RunResult r;
-      try
-        {
-          r = run(model, options.run, start);
-        }
-      catch (const InputError &)
-        {
-          throw; // the case's fault: every point would fail
-        }
-      catch (const std::runtime_error &e)
-        {
-          const SweepPoint pt = failed_point(series.name, frequency, e.what());
-          record(pt, series.name + " " + format_number(frequency) + " Hz: " + pt.regime);
-          return std::nullopt;
-        }
-      SweepPoint pt{series.name,
-                    frequency,
-                    r.stored_pressure_Pa,
-                    r.mean_velocity_m_per_s,
-                    r.settled,
-                    r.metric_stderr,
-                    r.regime,
-                    r.n_startup_cycles,
-                    r.n_measured_cycles,
-                    r.wall_time_s,
-                    r.volume_balance_rel_error,
-                    r.stats.steps,
-                    r.stats.rhs_evaluations,
-                    r.stats.jacobian_evaluations,
-                    r.stats.events,
-                    r.warnings.size()};
-      pt.set_validity(r);
-      // The state first: a point whose row is written always has its state.
-      if (states)
-        states->append(to_state_row(key(series.name, frequency), r.end_state));
-      char what[160];
-      std::snprintf(what, sizeof(what), "%s %.4g Hz: %s %.4g, %zu+%zu cycles, %.2f s",
-                    pt.series.c_str(), pt.frequency_Hz,
-                    options.scenario == Scenario::no_flow ? "p_str [Pa]" : "v [m/s]",
-                    options.scenario == Scenario::no_flow ? pt.stored_pressure_Pa :
-                                                            pt.mean_velocity_m_per_s,
-                    pt.startup_cycles, pt.measured_cycles, pt.wall_time_s);
-      record(pt, what);
-      return std::move(r.end_state);
-    };
-
-    auto worker = [&]() {
-      try
-        {
-          while (true)
-            {
-              const std::size_t i = next++;
-              if (i >= chains.size())
-                return;
-              const Chain &chain = chains[i];
-              // Two previous points of the chain (frequency, end state) for the predictor.
-              std::vector<std::pair<double, StartState>> previous;
-              for (double f : chain.frequencies)
-                {
-                  std::optional<StartState> finished; // before a resume
-                  {
-                    std::lock_guard<std::mutex> lock(mutex);
-                    if (failure)
-                      return;
-                    if (done.count(key(chain.series.name, f)))
-                      {
-                        const auto it = end_states.find(key(chain.series.name, f));
-                        if (it == end_states.end())
-                          {
-                            previous.clear(); // no state: the next one starts from rest
-                            continue;
-                          }
-                        finished = it->second;
-                      }
-                  }
-                  std::optional<StartState> end;
-                  if (finished)
-                    end = std::move(*finished);
-                  else if (previous.empty())
-                    end = run_point(chain.series, f, nullptr);
-                  else
-                    {
-                      const StartState start = predicted_start(previous, f, options.scenario);
-                      end                    = run_point(chain.series, f, &start);
-                    }
-                  if (!end)
-                    { // failed: the next frequency starts from rest
-                      previous.clear();
-                      continue;
-                    }
-                  previous.emplace_back(f, std::move(*end));
-                  if (previous.size() > 2)
-                    previous.erase(previous.begin());
-                }
-            }
-        }
-      catch (...)
-        {
-          std::lock_guard<std::mutex> lock(mutex);
-          if (!failure)
-            failure = std::current_exception();
-        }
-    };
-    std::vector<std::thread> threads;
-    for (unsigned t = 0; t < n_threads && !chains.empty(); ++t)
-      threads.emplace_back(worker);
-    for (auto &t : threads)
-      t.join();
-    if (failure)
-      std::rethrow_exception(failure);
-
-    for (const auto &s : options.series)
-      for (double f : options.frequencies_Hz)
-        result.points.push_back(done.at(key(s.name, f)));
-    result.wall_time_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+    SweepResult result = SweepRun(parameters, options, out_dir).run();
+    result.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
     return result;
   }
 } // namespace rectify::system
