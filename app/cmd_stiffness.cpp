@@ -151,12 +151,10 @@ namespace rectify::app
           kinds.push_back(m.kind);
         }
 
-      std::size_t n_small = 0;
-      double      last_small_level = 0;
+      double last_small_level = 0;
       for (const auto &l : r.levels)
         if (l.small_deflection)
           {
-            ++n_small;
             last_small_level = std::max(last_small_level, l.level);
           }
 

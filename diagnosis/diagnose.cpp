@@ -95,6 +95,7 @@ namespace rectify::diagnosis
       void                            end_judging(int look);
       Judgement                       judge_one(std::size_t i, const CandidateResult &base,
                                                 const std::vector<Signals> &base_made) const;
+      NamingRules rules() const { return {x_.options.bic_threshold, x_.options.min_gap_closed}; }
       FeatureScores                   dominant_feature(const std::vector<Signals> &base_made,
                                                        const std::vector<Signals> &made) const;
       bool                            sets_left_out(const Effect *e) const;
@@ -348,7 +349,7 @@ namespace rectify::diagnosis
         {
           const auto &c = fitted_[i];
           auto        j = judge_one(i, fitted_[0], predictions_[0]);
-          reasons_ += describe(j, scores(c), scores(fitted_[0]), {x_.options.bic_threshold, x_.options.min_gap_closed});
+          reasons_ += describe(j, scores(c), scores(fitted_[0]), rules());
           if (j.stop())
             return false; // the rest rank lower still
           if (!j.named())
@@ -370,7 +371,7 @@ namespace rectify::diagnosis
                   if (!again.named())
                     {
                       const auto why = describe(again, scores(c), scores(t.fit),
-                                                {x_.options.bic_threshold, x_.options.min_gap_closed});
+                                                rules());
                       rr_.set_by_effect.named  = false;
                       rr_.set_by_effect.reason = why;
                       reasons_ += c.effect + " passed every rule against none, but it sets what the "
@@ -393,7 +394,7 @@ namespace rectify::diagnosis
     {
       return judge(
         scores(fitted_[i]), scores(base), [&] { return dominant_feature(base_made, predictions_[i]); },
-        {x_.options.bic_threshold, x_.options.min_gap_closed});
+        rules());
     }
 
     /// The signal and half-cycle where the calibrated baseline's residual is
@@ -520,7 +521,7 @@ namespace rectify::diagnosis
                        near_judged_.closed,
                        rule_name(near_judged_.failed),
                        describe(near_judged_, scores(fitted_[k]), scores(fitted_[0]),
-                                {x_.options.bic_threshold, x_.options.min_gap_closed}),
+                                rules()),
                        fitted_[0].bic,
                        fitted_[0].rms_train,
                        fitted_[k].bic,

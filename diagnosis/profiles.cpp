@@ -112,6 +112,9 @@ namespace rectify::diagnosis
       const Eigen::Index                               ne_;  ///< the effect's parameters
       std::vector<double>                              r0_;
       Eigen::MatrixXd                                  J_, C_, Cc_;
+      Eigen::MatrixXd                                  Jb_;     ///< J's columns of the baseline and the gain
+      Eigen::LDLT<Eigen::MatrixXd>                     normal_; ///< Jb^T Jb + the prior, factored
+      DiagnoseOptions                                  short_search_; ///< a profile's refit: one short search
       double                                           ssr_ = 0, n_eff_ = 1, s2_ = 1, rms_best_ = 0;
       std::vector<std::string>                         names_;
       std::vector<Side>                                sides_;
@@ -139,6 +142,13 @@ namespace rectify::diagnosis
         names_.push_back(ev_.base.uncertain[j].name());
       names_.push_back("force_gain");
       rms_best_ = std::sqrt(ssr_ / static_cast<double>(std::max<std::size_t>(r0_.size(), 1)));
+      // the profiles' Gauss-Newton step over the baseline and the gain, damped by the ranges' prior
+      Jb_               = J_.rightCols(J_.cols() - ne_);
+      Eigen::MatrixXd A = Jb_.transpose() * Jb_;
+      A.diagonal().array() += uniform_prior_precision * s2_;
+      normal_.compute(A);
+      short_search_                 = ev_.options;
+      short_search_.max_evaluations = 0; // + 10 per free parameter (fit)
     }
 
     /// Side k of the profiles (parameter k / 2, down then up), all at once.
@@ -163,21 +173,15 @@ namespace rectify::diagnosis
       s.moved           = std::abs(step) > 1e-9; // else at its bound: no side to try
       if (!s.moved || ne_ != 1) // (every effect has one parameter; a second would need its own refit)
         return;
-      DiagnoseOptions short_search = ev_.options;
-      short_search.max_evaluations = 0; // + 10 per free parameter (fit)
-      const auto            nb = J_.cols() - ne_;
-      const Eigen::MatrixXd Jb = J_.rightCols(nb);
-      Eigen::MatrixXd       A  = Jb.transpose() * Jb;
-      A.diagonal().array() += uniform_prior_precision * s2_;
-      const Eigen::LDLT<Eigen::MatrixXd>      normal(A);
+      const auto                              nb = Jb_.cols();
       const Eigen::Map<const Eigen::VectorXd> r0v(r0_.data(), static_cast<Eigen::Index>(r0_.size()));
       system::SystemParameters                fixed = all_.base;
       ev_.effect->apply(std::vector<double>{s.value}, fixed);
       std::vector<double>   from(ua_.begin() + ne_, ua_.end()); // every uncertain one's, the gain's
-      const Eigen::VectorXd db = normal.solve(-Jb.transpose() * (r0v + J_.col(static_cast<Eigen::Index>(i)) * step));
+      const Eigen::VectorXd db = normal_.solve(-Jb_.transpose() * (r0v + J_.col(static_cast<Eigen::Index>(i)) * step));
       for (Eigen::Index j = 0; j < nb; ++j)
         from[static_cast<std::size_t>(j)] = std::clamp(from[static_cast<std::size_t>(j)] + db(j), 0.0, 1.0);
-      Evaluator profile{fixed, all_.map, all_.runs, nullptr, short_search, 1, nullptr, 0.0, 1, all_.free, all_.held,
+      Evaluator profile{fixed, all_.map, all_.runs, nullptr, short_search_, 1, nullptr, 0.0, 1, all_.free, all_.held,
                         from, all_.superseded};
       from = profile_start(profile, i, from, s);
       std::vector<Signals> unused;
