@@ -199,7 +199,7 @@ namespace rectify::diagnosis
         if (const auto &q = ev.base.uncertain[j]; q.off_at_zero && !(ev.base.real_value(q.table, q.key) > 0.0))
           out.push_back(baseline_parameter(ev.base, q, 0.0, 0.0, false,
                                            "left out until an effect is named, then tried on with it"));
-        else if (const auto why = ev.base.inert_reason(q.table, q.key); !why.empty())
+        else if (const auto why = inert_reason(ev.base, q.table, q.key); !why.empty())
           out.push_back(baseline_parameter(ev.base, q, ev.held[j], 0.0, false,
                                            "held at the case's value: " + why +
                                              "; freed with a named effect that makes it act, where the "

@@ -67,4 +67,17 @@ namespace rectify::diagnosis
       names += (names.empty() ? "" : ", ") + e->name();
     return names;
   }
+  std::string inert_reason(const system::SystemParameters &p, const std::string &table, const std::string &key)
+  {
+    if (table != "load")
+      return "";
+    const bool shape = key == "friction_velocity_scale_m_per_s" || key == "static_friction_ratio" ||
+                       key == "stribeck_velocity_m_per_s";
+    if (shape && !(p.load.coulomb_friction_N > 0))
+      return "no piston friction in this model ([load] coulomb_friction_N = 0)";
+    if (key == "stribeck_velocity_m_per_s" && !(p.load.static_friction_ratio > 1))
+      return "no Stribeck rise in this model ([load] static_friction_ratio = 1)";
+    return "";
+  }
+
 } // namespace rectify::diagnosis

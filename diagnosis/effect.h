@@ -1,9 +1,9 @@
 // The library of candidate effects: each a named, physically parameterised
-// extension of the system model with bounds (issue 4). An effect is one file
-// in effects/ defining a `make_<name>()` function, plus one line in
-// registry.cpp (and its file in CMakeLists.txt). Effects whose physics the
-// model lacks need that physics in system/ first (as case-file keys); the
-// effect then only says which keys it sets.
+// extension of the system model with bounds. An effect is one file in
+// effects/ defining a `make_<name>()` function, plus one line in
+// registry.cpp. Its physics lives in system/ (case-file keys, and a
+// component of the model, system/component.h, of the same name); the
+// effect says which keys a fit sets. docs/adding-an-effect.md walks through one.
 #pragma once
 
 #include <functional>
@@ -105,6 +105,13 @@ namespace rectify::diagnosis
   };
 
   /// Every effect of the library, in report order ("none" is not one of them).
+  /// Why [table] key does nothing in the model the parameters p make, or ""
+  /// where it acts: the friction's shape without friction ([load]
+  /// coulomb_friction_N = 0), the Stribeck velocity without a Stribeck rise
+  /// (static_friction_ratio = 1). A diagnosis holds such an [uncertain]
+  /// parameter out of its fits until it acts.
+  std::string inert_reason(const system::SystemParameters &p, const std::string &table, const std::string &key);
+
   const std::vector<std::shared_ptr<const Effect>> &effect_library();
   /// The effect called `name`; InputError listing the names if there is none.
   std::shared_ptr<const Effect> find_effect(const std::string &name);

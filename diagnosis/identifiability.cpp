@@ -56,8 +56,8 @@ namespace rectify::diagnosis
     std::vector<double>       ua(u.begin(), u.begin() + static_cast<std::ptrdiff_t>(ne));
     for (std::size_t j = 0; j < ev.base.uncertain.size(); ++j)
       if (const auto &q = ev.base.uncertain[j];
-          !ev.is_superseded(j) && !ev.is_off(j, w) && p.inert_reason(q.table, q.key).empty() &&
-          (effect_shape || ev.base.inert_reason(q.table, q.key).empty() ||
+          !ev.is_superseded(j) && !ev.is_off(j, w) && inert_reason(p, q.table, q.key).empty() &&
+          (effect_shape || inert_reason(ev.base, q.table, q.key).empty() ||
            std::find(ev.free.begin(), ev.free.end(), j) != ev.free.end()))
         {
           all.free.push_back(j);
@@ -288,12 +288,12 @@ namespace rectify::diagnosis
     const auto                p0 = ev.parameters(u);
     for (std::size_t j = 0; j < nq; ++j)
       if (ev.is_superseded(j) || ev.is_off(j, w0) ||
-          !p0.inert_reason(base.uncertain[j].table, base.uncertain[j].key).empty())
+          !inert_reason(p0, base.uncertain[j].table, base.uncertain[j].key).empty())
         was_free[j] = true; // not a candidate for freeing (does nothing here)
     // held, and not this call's to free: stays held (its column still counts)
     std::vector<bool> skip(nq, false);
     for (std::size_t j = 0; j < nq; ++j)
-      skip[j] = !was_free[j] && base.inert_reason(base.uncertain[j].table, base.uncertain[j].key).empty() == effect_shape;
+      skip[j] = !was_free[j] && inert_reason(base, base.uncertain[j].table, base.uncertain[j].key).empty() == effect_shape;
     bool any = false;
     for (std::size_t j = 0; j < nq; ++j)
       any = any || (!was_free[j] && !skip[j]);

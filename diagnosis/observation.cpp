@@ -9,6 +9,7 @@
 #include "common/case_file.h"
 #include "diagnosis/fourier.h"
 #include "diagnosis/residuals.h"
+#include "system/components/coil_dynamics.h"
 #include "system/reed.h"
 #include "system/simulation.h"
 
@@ -373,9 +374,10 @@ namespace rectify::diagnosis
     // pump in operation, where the current lags the voltage); else the
     // drive's own value
     double current = drive_at_0 * (model.drive().is_voltage() ? 1.0 / c.R_coil : 1.0);
-    if (model.drive().is_voltage() && c.coil_dynamics && c.L_coil > 0 && state::coil_current < n)
+    if (const auto *coil = dynamic_cast<const CoilDynamics *>(model.component("coil_dynamics"));
+        coil && state::coil_current < n)
       {
-        current                  = periodic_coil_current(model.drive(), c.R_coil, c.L_coil);
+        current                  = periodic_coil_current(model.drive(), coil->resistance_ohm(), coil->inductance_H());
         y[state::coil_current] = current;
       }
     // the rod: measured, or in its static balance F = k_eff x_p + A_pi p_ch

@@ -1,6 +1,6 @@
 // The effect library. To add an effect, write effects/<name>.cpp with
 // `make_<name>()` (CMake picks the file up), declare it here and list it
-// below.
+// below (docs/adding-an-effect.md).
 #include "diagnosis/effect.h"
 
 namespace rectify::diagnosis

@@ -171,7 +171,7 @@ namespace rectify::diagnosis
     /// case's values; but one the case leaves out (off_at_zero), which is
     /// held off: the named effect's fit tries it on (calibrate_left_out);
     /// and one that does nothing in the case's model (the friction's
-    /// shape without friction: SystemParameters::inert_reason), held at
+    /// shape without friction: inert_reason (diagnosis/effect.h)), held at
     /// the case's value: a named effect that makes it act may free it
     /// (free_determined).
     static Evaluator make(const system::SystemParameters &base, const system::ValveMaps &map,
@@ -186,7 +186,7 @@ namespace rectify::diagnosis
           ev.held.push_back(uncertain_to_unit(q, base.real_value(q.table, q.key)));
           if (q.off_at_zero && !(base.real_value(q.table, q.key) > 0.0)) // (a later round may have it on)
             continue;
-          if (!base.inert_reason(q.table, q.key).empty())
+          if (!inert_reason(base, q.table, q.key).empty())
             continue;
           ev.free.push_back(j);
           ev.nuisance_start.push_back(ev.held.back());

@@ -74,16 +74,6 @@ namespace rectify::system
     V_ch   = V_c;
     V_h    = A_po * p.cylinder.high_side_fraction * p.cylinder.wetted_length_m;
     V_l    = A_po * (1.0 - p.cylinder.high_side_fraction) * p.cylinder.wetted_length_m;
-    C_seal = p.cylinder.seal_compliance_m3_per_Pa;
-    R_leak = p.valves.leak_resistance_Pa_s_per_m3;
-    K_leak = p.valves.leak_area_m2 > 0 ?
-               p.fluid.density_kg_per_m3 / (2.0 * p.valves.leak_area_m2 * p.valves.leak_area_m2) :
-               0.0;
-    const double Cd = p.valves.orifice_discharge_coefficient;
-    const double P  = p.valves.orifice_perimeter_m > 0 ?
-                        p.valves.orifice_perimeter_m :
-                        std::sqrt(4.0 * M_PI * p.reed.pressure_area_m2); // pi d, pi d^2/4 = A_r
-    orifice_factor = Cd > 0 ? p.fluid.density_kg_per_m3 / (2.0 * Cd * Cd * P * P) : 0.0;
     L_line         = p.lines.outlet_inertance_Pa_s2_per_m3;
     // With an inertial line, the oil between the valve and the line needs a
     // compliance of its own, else a closing valve stops the line's flow
@@ -119,16 +109,12 @@ namespace rectify::system
         C_line_node = A * l / beta_eff / n;
         V_line_node = A * l / n;
       }
-    coil_dynamics  = p.drive.coil_dynamics == "on";
-    R_coil         = p.transducer.coil_resistance_ohm;
-    L_coil         = p.transducer.coil_inductance_H;
-    F_coulomb      = p.load.coulomb_friction_N;
-    v_friction     = p.load.friction_velocity_scale_m_per_s;
-    friction_rise  = p.load.static_friction_ratio - 1.0;
-    v_stribeck     = p.load.stribeck_velocity_m_per_s;
+    R_coil          = p.transducer.coil_resistance_ohm;
     const double w2 = 2.0 * M_PI * p.reed.second_mode_frequency_Hz;
     k_r2 = reed.mass * w2 * w2;
     b_r2 = 2.0 * p.reed.damping_ratio * std::sqrt(k_r2 * reed.mass);
+    for (const auto &component : make_components(p, scenario))
+      component->adjust(*this);
   }
 
   nlohmann::json ModelConstants::to_json() const
@@ -162,6 +148,9 @@ namespace rectify::system
     , scenario_(scenario)
     , drive_(std::move(drive))
   {
+    for (auto &component : make_components(parameters, scenario))
+      if (component->acts(drive_))
+        components_.push_back(std::move(component));
     stop_lift_ = parameters.reed.stop == "on" && valves_ == ValveModel::dynamic ?
                    parameters.reed.stop_lift_m :
                    std::numeric_limits<double>::infinity();
@@ -269,6 +258,14 @@ namespace rectify::system
             valves, scenario, std::move(drive))
   {}
 
+  const Component *Model::component(std::string_view name) const
+  {
+    for (const auto &c : components_)
+      if (c->name() == name)
+        return c.get();
+    return nullptr;
+  }
+
   maps::AreaMap::Value Model::force_area(std::size_t v, std::span<const double> y) const
   {
     if (valves_ == ValveModel::ideal || closed_[v])
@@ -299,7 +296,7 @@ namespace rectify::system
     if (i == state::chamber_p)
       return c_.C_ch + air(c_.V_ch);
     if (i == state::high_p)
-      return c_.C_h + c_.C_seal + air(c_.V_h);
+      return c_.C_h + air(c_.V_h);
     if (i == state::low_p)
       return c_.C_l + air(c_.V_l);
     if (i == state::line_node_p)
@@ -390,8 +387,8 @@ namespace rectify::system
   std::vector<double> Model::initial_state() const
   {
     std::vector<double> y(n_states(), 0.0);
-    if (drive_.is_voltage() && c_.coil_dynamics)
-      y[state::coil_current] = drive_.value(0.0) / c_.R_coil; // at rest: steady coil
+    for (const auto &c : components_)
+      c->initial_state(y, drive_);
     return y;
   }
 
@@ -403,9 +400,7 @@ namespace rectify::system
 
   bool Model::needs_difference_jacobian() const
   {
-    return c_.fluid.free_air_fraction > 0 || c_.C_seal > 0 || c_.R_leak > 0 || c_.K_leak > 0 ||
-           c_.orifice_factor > 0 || c_.L_line > 0 || (drive_.is_voltage() && c_.coil_dynamics) ||
-           c_.F_coulomb > 0 || c_.k_r2 > 0 || loading_;
+    return !components_.empty() || c_.fluid.free_air_fraction > 0 || c_.L_line > 0 || c_.k_r2 > 0 || loading_;
   }
 
   double Model::opening(std::size_t v, std::span<const double> y) const
@@ -420,7 +415,10 @@ namespace rectify::system
   {
     if (!drive_.is_voltage())
       return drive_.value(t);
-    return c_.coil_dynamics ? y[state::coil_current] : drive_.value(t) / c_.R_coil;
+    for (const auto &c : components_)
+      if (const auto I = c->current(t, y, drive_))
+        return *I;
+    return drive_.value(t) / c_.R_coil;
   }
 
   double ModelConstants::outlet_line_ringing_Hz() const
@@ -433,7 +431,7 @@ namespace rectify::system
     const std::size_t n = n_line_segments;
     Eigen::VectorXd   C(n + 1);
     for (std::size_t k = 0; k <= n; ++k)
-      C(static_cast<Eigen::Index>(k)) = k == 0 ? C_node : k == n ? C_h + C_seal : C_line_node;
+      C(static_cast<Eigen::Index>(k)) = k == 0 ? C_node : k == n ? C_h : C_line_node;
     Eigen::MatrixXd S = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(n + 1), static_cast<Eigen::Index>(n + 1));
     const double    g = static_cast<double>(n) / L_line;
     for (Eigen::Index k = 0; k < static_cast<Eigen::Index>(n); ++k)
@@ -472,7 +470,7 @@ namespace rectify::system
       if (node == 3) // the node between the outlet valve and an inertial line
         return c_.C_node * q + c_.V_node * c_.fluid.free_air_volume_change_per_volume(q);
       const double V = node == 0 ? c_.V_ch : node == 1 ? c_.V_h : c_.V_l;
-      const double C = node == 0 ? c_.C_ch : node == 1 ? c_.C_h + c_.C_seal : c_.C_l;
+      const double C = node == 0 ? c_.C_ch : node == 1 ? c_.C_h : c_.C_l;
       return C * q + V * c_.fluid.free_air_volume_change_per_volume(q);
     };
     if (cavity_nodes_.empty() || !(p < p_cavitation_))
@@ -631,24 +629,18 @@ namespace rectify::system
     Flows        f;
     f.R1 = valve_resistance(0, y).resistance;
     f.R2 = valve_resistance(1, y).resistance;
-    // Leak paths in parallel with each valve. Laminar (R_leak only): one
-    // parallel resistance, the thesis model's algebra. With a turbulent leak
-    // (K_leak) the valve and its leaks share one drop u, solved for by
-    // leaky_branch_flow.
-    const bool quadratic_leak = c_.K_leak > 0;
-    if (c_.R_leak > 0 && !quadratic_leak)
-      {
-        f.R1 = f.R1 * c_.R_leak / (f.R1 + c_.R_leak);
-        f.R2 = f.R2 * c_.R_leak / (f.R2 + c_.R_leak);
-      }
-    // Orifice loss K q|q| through an open reed valve: K = factor / x^2.
-    const auto orifice = [&](std::size_t v) {
-      if (c_.orifice_factor == 0.0 || valves_ == ValveModel::ideal || closed_[v])
-        return 0.0;
-      const double x = std::max(opening(v, y), 1e-9);
-      return c_.orifice_factor / (x * x);
-    };
-    const double K1 = orifice(0), K2 = orifice(1);
+    // Each valve's branch law from the components (BranchLaw): a quadratic
+    // drop K q|q| through the open valve, leak paths beside it. A laminar
+    // leak alone is one parallel resistance, the thesis model's algebra;
+    // with a turbulent one the valve and its leaks share one drop u, solved
+    // for by leaky_branch_flow.
+    const BranchLaw law1 = branch_law(0, y), law2 = branch_law(1, y);
+    const bool      quadratic1 = law1.leak_K > 0, quadratic2 = law2.leak_K > 0;
+    if (law1.leak_resistance > 0 && !quadratic1)
+      f.R1 = f.R1 * law1.leak_resistance / (f.R1 + law1.leak_resistance);
+    if (law2.leak_resistance > 0 && !quadratic2)
+      f.R2 = f.R2 * law2.leak_resistance / (f.R2 + law2.leak_resistance);
+    const double K1 = law1.series_K, K2 = law2.series_K;
     const double g5 = 1.0 / c_.R5, g6 = 1.0 / c_.R6;
     // A moving reed draws q_d = A_m(x) v through its valve at a fixed drop
     // (fluid loading "map"): the valve's drop is R (q - q_d), a pressure
@@ -665,9 +657,9 @@ namespace rectify::system
     double     u_outlet = 0, u_inlet = 0;
     const auto outlet_branch = [&](double R_s, double dp) {
       dp += s1;
-      if (!quadratic_leak)
+      if (!quadratic1)
         return branch_flow(f.R1 + R_s, K1, dp).first;
-      const auto b = leaky_branch_flow(f.R1, K1, c_.R_leak, c_.K_leak, R_s, dp);
+      const auto b = leaky_branch_flow(f.R1, K1, law1.leak_resistance, law1.leak_K, R_s, dp);
       u_outlet     = b.u;
       return b.q;
     };
@@ -680,13 +672,13 @@ namespace rectify::system
       f.q_outlet = f.q_line = outlet_branch(c_.R3, p_ch - p_h);
     // the inlet branch without a turbulent leak, junction -> chamber: flow and its derivative
     const auto inlet_branch = [&](double dp) { return branch_flow(f.R2 + c_.R4, K2, dp + s2); };
-    if (K2 == 0.0 && !quadratic_leak)
+    if (K2 == 0.0 && !quadratic2)
       {
         const double g24 = 1.0 / (f.R2 + c_.R4);
         f.p_junction     = (g24 * (p_ch - s2) + g5 * p_acc + g6 * p_l) / (g24 + g5 + g6);
         f.q_inlet        = g24 * (f.p_junction - p_ch + s2);
       }
-    else if (quadratic_leak)
+    else if (quadratic2)
       {
         // One equation in the drop u across the inlet valve and its leaks,
         // q = Q(u) through them: the branch gives the junction's pressure,
@@ -698,7 +690,7 @@ namespace rectify::system
         // Newton, bracketed (one solve, not one per step of an outer one).
         const double G  = g5 + g6;
         const double c0 = g5 * (p_ch - s2 - p_acc) + g6 * (p_ch - s2 - p_l);
-        const auto   Q  = [&](double u) { return valve_and_leaks(f.R2, K2, c_.R_leak, c_.K_leak, u); };
+        const auto   Q  = [&](double u) { return valve_and_leaks(f.R2, K2, law2.leak_resistance, law2.leak_K, u); };
         double       u  = 0.0;
         if (c0 != 0.0)
           {
@@ -744,19 +736,24 @@ namespace rectify::system
     f.q_low         = g6 * (f.p_junction - p_l);
     // valve pressure drops: R q + K q|q| (p_o = (R1 p_h + R3 p_ch)/(R1 + R3) when linear)
     // (with a turbulent leak the valve carries only part of q: its drop is u)
-    f.p_outlet = quadratic_leak ? p_ch - u_outlet
+    f.p_outlet = quadratic1 ? p_ch - u_outlet
                                 : p_ch - f.R1 * (f.q_outlet - q_d1) - K1 * f.q_outlet * std::abs(f.q_outlet);
-    f.p_inlet  = quadratic_leak ? p_ch + u_inlet
+    f.p_inlet  = quadratic2 ? p_ch + u_inlet
                                 : p_ch + f.R2 * (f.q_inlet - q_d2) + K2 * f.q_inlet * std::abs(f.q_inlet);
     f.outlet_force  = force_area(0, y).area * (p_ch - f.p_outlet);
     f.inlet_force   = force_area(1, y).area * (f.p_inlet - p_ch);
     return f;
   }
 
-  double Model::friction_force(double v) const
+  BranchLaw Model::branch_law(std::size_t v, std::span<const double> y) const
   {
-    const double rise = c_.friction_rise > 0 ? c_.friction_rise * std::exp(-(v / c_.v_stribeck) * (v / c_.v_stribeck)) : 0.0;
-    return c_.F_coulomb * (1.0 + rise) * std::tanh(v / c_.v_friction);
+    BranchLaw law;
+    if (components_.empty())
+      return law;
+    const auto x = valves_ == ValveModel::ideal || closed_[v] ? std::nullopt : std::optional<double>(opening(v, y));
+    for (const auto &c : components_)
+      c->add_to_branch(v, x, law);
+    return law;
   }
 
   void Model::rhs_at(double t, std::span<const double> y, std::span<double> ydot) const
@@ -774,10 +771,10 @@ namespace rectify::system
                      y[chamber_p] * c_.A_pi) /
                     c_.m_f;
     ydot[actuator_x] = y[actuator_v];
-    const double friction = c_.F_coulomb > 0 ? friction_force(y[actuator_v]) : 0.0;
-    ydot[actuator_v] = ((y[high_p] - y[low_p]) * c_.A_po - c_.b_l * y[actuator_v] -
-                        c_.k_l * y[actuator_x] - friction) /
-                       c_.m_l;
+    double load_force = (y[high_p] - y[low_p]) * c_.A_po - c_.b_l * y[actuator_v] - c_.k_l * y[actuator_x];
+    for (const auto &c : components_)
+      load_force -= c->actuator_force(y);
+    ydot[actuator_v] = load_force / c_.m_l;
 
     const std::array<double, 2> force{f.outlet_force, f.inlet_force};
     for (std::size_t v = 0; v < 2; ++v)
@@ -815,9 +812,9 @@ namespace rectify::system
           }
       }
 
-    // Compliances, with the free air's pressure dependence and the seal.
+    // Compliances, with the free air's pressure dependence.
     const double C_ch = c_.C_ch + c_.V_ch * c_.fluid.free_air_compliance_per_volume(y[chamber_p]);
-    const double C_h  = c_.C_h + c_.C_seal + c_.V_h * c_.fluid.free_air_compliance_per_volume(y[high_p]);
+    const double C_h  = c_.C_h + c_.V_h * c_.fluid.free_air_compliance_per_volume(y[high_p]);
     const double C_l  = c_.C_l + c_.V_l * c_.fluid.free_air_compliance_per_volume(y[low_p]);
     ydot[chamber_p]     = (c_.A_pi * y[piston_v] + f.q_inlet - f.q_outlet) / C_ch;
     ydot[accumulator_p] = f.q_accumulator / c_.C_acc;
@@ -850,9 +847,9 @@ namespace rectify::system
             ydot[ip] = (q_in - y[iq]) / C;
           }
       }
-    ydot[coil_current] = drive_.is_voltage() && c_.coil_dynamics ?
-                           (drive_.value(t) - c_.R_coil * y[coil_current]) / c_.L_coil :
-                           0.0;
+    ydot[coil_current] = 0.0;
+    for (const auto &c : components_)
+      c->own_rhs(t, y, drive_, ydot);
   }
 
   std::vector<std::vector<std::size_t>> Model::rhs_reads() const
@@ -877,8 +874,6 @@ namespace rectify::system
     };
     r[piston_x]   = {piston_v};
     r[piston_v]   = {piston_x, piston_v, fluid_x, fluid_v};
-    if (n > coil_current)
-      r[piston_v].push_back(coil_current);
     r[fluid_x]    = {fluid_v};
     r[fluid_v]    = {piston_x, piston_v, fluid_x, fluid_v, chamber_p};
     r[actuator_x] = {actuator_v};
@@ -911,7 +906,8 @@ namespace rectify::system
           r[iq] = {ip, iq, k + 1 < c_.n_line_segments ? line_segment_node(k + 1) : std::size_t(high_p)};
           r[ip] = k == 0 ? with_flows({ip, iq}) : std::vector<std::size_t>{line_segment_flow(k - 1), iq, ip};
         }
-    r[coil_current] = {coil_current};
+    for (const auto &c : components_)
+      c->own_reads(r);
     return r;
   }
 

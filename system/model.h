@@ -41,6 +41,7 @@
 
 #include "maps/map_set.h"
 #include "maps/resistance_map.h"
+#include "system/component.h"
 #include "system/drive.h"
 #include "system/integrator.h"
 #include "system/parameters.h"
@@ -124,25 +125,20 @@ namespace rectify::system
     double R_ideal_open;
     double p_bias; ///< absolute pressure the gauge states are measured from
     maps::OutOfRange out_of_range;
-    // Optional effects (0 = off), see SystemParameters.
+    // The effects the model holds in its core (0 = off); the others are
+    // components (system/component.h), which adjust() these constants.
     FluidParameters fluid;         ///< for the free air's pressure-dependent compliance
     double V_ch, V_h, V_l;         ///< oil volumes of the chamber, high and low sides
-    double C_seal;                 ///< extra high-side compliance
-    double R_leak;                 ///< leak path across each valve: its laminar resistance
-    double K_leak;                 ///< and its turbulent drop coefficient rho / (2 A_leak^2)
-    double orifice_factor;         ///< rho / (2 Cd^2 P^2): orifice K = factor / x^2
     double L_line;                 ///< outlet-line inertance
     double C_node;                 ///< oil between the outlet valve and the line (with L_line)
     double V_node;                 ///< its volume (a tenth of the high side's, taken from V_h)
     double added_line_length = 0;  ///< the line whose inertance L_line is (its R and C are in R3, C_node, C_h)
     std::size_t n_line_segments = 1; ///< the inertial line's pi sections (L_line / n and R3 / n each)
     double C_line_node = 0, V_line_node = 0; ///< each node between two segments: a segment's oil
-    bool   coil_dynamics;          ///< integrate the coil current (voltage drive)
-    double R_coil, L_coil;
-    /// output-piston friction F_c [1 + rise exp(-(v / v_st)^2)] tanh(v / v_s)
-    double F_coulomb, v_friction, friction_rise, v_stribeck;
+    double R_coil;                 ///< the coil's resistance: a voltage drive's current V / R
     double k_r2, b_r2;             ///< second reed mode (k_r2 = 0: off)
 
+    /// The thesis's constants and the core effects', then each component's adjust().
     ModelConstants(const SystemParameters &p, Scenario scenario);
     /// The inertial outlet line's lowest frequency with both valves shut
     /// [Hz]: the chain of its n segments (L / n each) between the node
@@ -253,8 +249,9 @@ namespace rectify::system
     /// line, relative to the bias state: the integral of
     /// the node's compliance (for the volume balances).
     double              stored_volume(int node, double p) const;
-    /// True if an optional effect is on: the analytic Jacobian covers only
-    /// the thesis model, so CVODE's difference quotients are used instead.
+    /// True if an optional effect is on (a component or a core effect): the
+    /// analytic Jacobian covers only the thesis model, so CVODE's difference
+    /// quotients are used instead.
     bool                needs_difference_jacobian() const;
     /// The highest BDF order the integrator should use (0: no limit). 2 with
     /// an outlet line of several sections: a short line's sections ring
@@ -323,9 +320,10 @@ namespace rectify::system
     /// The cavitation pressure as a gauge state (about the bias).
     double cavitation_gauge_pressure() const { return p_cavitation_; }
 
-    /// The output piston's friction force at its velocity v ([load]):
-    /// F_c [1 + (F_s / F_c - 1) exp(-(v / v_st)^2)] tanh(v / v_s).
-    double                      friction_force(double v) const;
+    /// The components the model composes (system/component.h), in order.
+    const Components           &components() const { return components_; }
+    /// The component called `name`, or nullptr if it is off.
+    const Component            *component(std::string_view name) const;
     const ModelConstants       &constants() const { return c_; }
     const StateLimits          &limits() const { return limits_; }
     const Drive                &drive() const { return drive_; }
@@ -355,10 +353,13 @@ namespace rectify::system
 
     /// R and dR/dx of valve v at state y.
     maps::ResistanceMap::Value valve_resistance(std::size_t v, std::span<const double> y) const;
+    /// What the components add to valve v's branch at state y.
+    BranchLaw branch_law(std::size_t v, std::span<const double> y) const;
     /// Pressure difference that drives flow forward through valve v.
     static double driving_pressure(std::size_t v, std::span<const double> y, const Flows &f);
 
     ModelConstants        c_;
+    Components            components_; ///< those that act with this drive
     StateLimits           limits_;
     std::array<maps::MapSet, 2> maps_;
     ValveModel            valves_;

@@ -32,6 +32,156 @@ namespace rectify::system
     }
   } // namespace
 
+  // Each struct's real case keys, declared once: the table drives their
+  // reading with its range (from_case), their access by name ([uncertain],
+  // real_field) and their place in summaries (to_json). Text and integer
+  // keys, and keys read with a condition, are read by the struct's from_case.
+  namespace
+  {
+    template <typename S>
+    struct RealKey
+    {
+      const char *key;
+      double S::*field;
+      Bounds      bounds;
+    };
+    template <typename S>
+    using RealKeys = std::vector<RealKey<S>>;
+
+    const RealKeys<TransducerParameters> &transducer_keys()
+    {
+      using T = TransducerParameters;
+      static const RealKeys<T> keys{
+        {"rod_youngs_modulus_Pa", &T::rod_youngs_modulus_Pa, positive},
+        {"rod_area_m2", &T::rod_area_m2, positive},
+        {"rod_length_m", &T::rod_length_m, positive},
+        {"diaphragm_stiffness_N_per_m", &T::diaphragm_stiffness_N_per_m, non_negative},
+        {"effective_mass_kg", &T::effective_mass_kg, positive},
+        {"damping_ratio", &T::damping_ratio, non_negative},
+        {"coil_turns", &T::coil_turns, positive},
+        {"piezomagnetic_coefficient_m_per_A", &T::piezomagnetic_coefficient_m_per_A, positive},
+        {"coil_resistance_ohm", &T::coil_resistance_ohm, positive},
+        {"coil_inductance_H", &T::coil_inductance_H, positive}};
+      return keys;
+    }
+
+    const RealKeys<ChamberParameters> &chamber_keys()
+    {
+      using T = ChamberParameters;
+      static const RealKeys<T> keys{{"height_m", &T::height_m, positive},
+                                    {"piston_area_m2", &T::piston_area_m2, positive},
+                                    {"fluid_damping_ratio", &T::fluid_damping_ratio, non_negative}};
+      return keys;
+    }
+
+    /// The reed's: k_r and m_r first (a reed map or a map set may replace
+    /// them), then those read after the reed's properties are known.
+    const RealKeys<ReedParameters> &reed_keys()
+    {
+      using T = ReedParameters;
+      static const RealKeys<T> keys{
+        {"stiffness_N_per_m", &T::stiffness_N_per_m, positive},
+        {"effective_mass_kg", &T::effective_mass_kg, positive},
+        {"damping_ratio", &T::damping_ratio, non_negative},
+        {"pressure_area_m2", &T::pressure_area_m2, positive},
+        {"restitution", &T::restitution, Bounds{0.0, 1.0, true, false}},
+        {"second_mode_frequency_Hz", &T::second_mode_frequency_Hz, non_negative},
+        {"structural_damping_ratio", &T::structural_damping_ratio, Bounds{0.0, 1.0, true, false}},
+        {"seat_film_m", &T::seat_film_m, ReedParameters::seat_film_bounds()},
+        {"film_cavitation_pressure_Pa", &T::film_cavitation_pressure_Pa, Bounds::closed(0.0, 1e8)},
+        {"stop_restitution", &T::stop_restitution, Bounds{0.0, 1.0, true, false}}};
+      return keys;
+    }
+    constexpr std::size_t reed_properties = 2; ///< reed_keys()' first two: k_r, m_r
+
+    const RealKeys<ValveParameters> &valve_keys()
+    {
+      using T = ValveParameters;
+      static const RealKeys<T> keys{
+        {"ideal_open_resistance_Pa_s_per_m3", &T::ideal_open_resistance_Pa_s_per_m3, positive},
+        {"leak_resistance_Pa_s_per_m3", &T::leak_resistance_Pa_s_per_m3, non_negative},
+        {"leak_area_m2", &T::leak_area_m2, non_negative},
+        {"orifice_discharge_coefficient", &T::orifice_discharge_coefficient, Bounds::closed(0.0, 10.0)},
+        {"orifice_perimeter_m", &T::orifice_perimeter_m, non_negative}};
+      return keys;
+    }
+
+    const RealKeys<LineParameters> &line_keys()
+    {
+      using T = LineParameters;
+      static const RealKeys<T> keys{
+        {"diameter_m", &T::diameter_m, positive},
+        {"length_m", &T::length_m, positive},
+        {"outlet_inertance_Pa_s2_per_m3", &T::outlet_inertance_Pa_s2_per_m3, non_negative}};
+      return keys;
+    }
+
+    const RealKeys<CylinderParameters> &cylinder_keys()
+    {
+      using T = CylinderParameters;
+      static const RealKeys<T> keys{{"piston_area_m2", &T::piston_area_m2, positive},
+                                    {"wetted_length_m", &T::wetted_length_m, positive},
+                                    {"high_side_fraction", &T::high_side_fraction, Bounds::open(0.0, 1.0)},
+                                    {"seal_compliance_m3_per_Pa", &T::seal_compliance_m3_per_Pa, non_negative}};
+      return keys;
+    }
+
+    const RealKeys<AccumulatorParameters> &accumulator_keys()
+    {
+      using T = AccumulatorParameters;
+      static const RealKeys<T> keys{{"gas_volume_m3", &T::gas_volume_m3, positive}};
+      return keys;
+    }
+
+    const RealKeys<LoadParameters> &load_keys()
+    {
+      using T = LoadParameters;
+      static const RealKeys<T> keys{
+        {"mass_kg", &T::mass_kg, positive},
+        {"damping_N_s_per_m", &T::damping_N_s_per_m, non_negative},
+        {"stiffness_N_per_m", &T::stiffness_N_per_m, non_negative},
+        {"no_flow_mass_kg", &T::no_flow_mass_kg, positive},
+        {"coulomb_friction_N", &T::coulomb_friction_N, non_negative},
+        {"friction_velocity_scale_m_per_s", &T::friction_velocity_scale_m_per_s, positive},
+        {"static_friction_ratio", &T::static_friction_ratio, Bounds::closed(1.0, 100.0)},
+        {"stribeck_velocity_m_per_s", &T::stribeck_velocity_m_per_s, positive}};
+      return keys;
+    }
+
+    const RealKeys<DriveParameters> &drive_keys()
+    {
+      using T = DriveParameters;
+      static const RealKeys<T> keys{{"current_pp_A", &T::current_pp_A, DriveParameters::current_pp_bounds()},
+                                    {"current_bias_A", &T::current_bias_A, DriveParameters::current_bias_bounds()}};
+      return keys;
+    }
+
+    /// Reads keys [first, last) of a table into p.
+    template <typename S>
+    void read_reals(const CaseFile &f, const std::string &table, const RealKeys<S> &keys, S &p,
+                    std::size_t first = 0, std::size_t last = std::size_t(-1))
+    {
+      for (std::size_t i = first; i < std::min(last, keys.size()); ++i)
+        p.*keys[i].field = f.real(table, keys[i].key, p.*keys[i].field, keys[i].bounds);
+    }
+
+    template <typename S>
+    void put_reals(nlohmann::json &j, const RealKeys<S> &keys, const S &p)
+    {
+      for (const auto &k : keys)
+        j[k.key] = p.*k.field;
+    }
+
+    template <typename S>
+    double *find_real(const RealKeys<S> &keys, S &p, const std::string &key)
+    {
+      for (const auto &k : keys)
+        if (key == k.key)
+          return &(p.*k.field);
+      return nullptr;
+    }
+  } // namespace
+
   double TransducerParameters::rod_stiffness_N_per_m() const
   {
     return rod_youngs_modulus_Pa * rod_area_m2 / rod_length_m;
@@ -45,30 +195,14 @@ namespace rectify::system
   TransducerParameters TransducerParameters::from_case(const CaseFile &f)
   {
     TransducerParameters p;
-    const std::string    t = "transducer";
-    p.rod_youngs_modulus_Pa = f.real(t, "rod_youngs_modulus_Pa", p.rod_youngs_modulus_Pa, positive);
-    p.rod_area_m2           = f.real(t, "rod_area_m2", p.rod_area_m2, positive);
-    p.rod_length_m          = f.real(t, "rod_length_m", p.rod_length_m, positive);
-    p.diaphragm_stiffness_N_per_m =
-      f.real(t, "diaphragm_stiffness_N_per_m", p.diaphragm_stiffness_N_per_m, non_negative);
-    p.effective_mass_kg = f.real(t, "effective_mass_kg", p.effective_mass_kg, positive);
-    p.damping_ratio     = f.real(t, "damping_ratio", p.damping_ratio, non_negative);
-    p.coil_turns        = f.real(t, "coil_turns", p.coil_turns, positive);
-    p.piezomagnetic_coefficient_m_per_A =
-      f.real(t, "piezomagnetic_coefficient_m_per_A", p.piezomagnetic_coefficient_m_per_A, positive);
-    p.coil_resistance_ohm = f.real(t, "coil_resistance_ohm", p.coil_resistance_ohm, positive);
-    p.coil_inductance_H   = f.real(t, "coil_inductance_H", p.coil_inductance_H, positive);
+    read_reals(f, "transducer", transducer_keys(), p);
     return p;
   }
 
   ChamberParameters ChamberParameters::from_case(const CaseFile &f)
   {
     ChamberParameters p;
-    const std::string t = "chamber";
-    p.height_m       = f.real(t, "height_m", p.height_m, positive);
-    p.piston_area_m2 = f.real(t, "piston_area_m2", p.piston_area_m2, positive);
-    p.fluid_damping_ratio =
-      f.real(t, "fluid_damping_ratio", p.fluid_damping_ratio, non_negative);
+    read_reals(f, "chamber", chamber_keys(), p);
     return p;
   }
 
@@ -76,8 +210,7 @@ namespace rectify::system
   {
     ReedParameters    p;
     const std::string t = "reed";
-    p.stiffness_N_per_m = f.real(t, "stiffness_N_per_m", p.stiffness_N_per_m, positive);
-    p.effective_mass_kg = f.real(t, "effective_mass_kg", p.effective_mass_kg, positive);
+    read_reals(f, t, reed_keys(), p, 0, reed_properties);
     const std::string map = f.text(t, "properties_map", "");
     const double      thickness =
       f.real(t, "properties_thickness_m", 0.127e-3, positive);
@@ -120,21 +253,12 @@ namespace rectify::system
                        format_number(p.stiffness_N_per_m) + " N/m with m_r = " +
                        format_number(p.effective_mass_kg) + " kg gives the reed a natural frequency of " +
                        format_number(f_reed) + " Hz; at most 1e6 Hz");
-    p.damping_ratio     = f.real(t, "damping_ratio", p.damping_ratio, non_negative);
-    p.pressure_area_m2  = f.real(t, "pressure_area_m2", p.pressure_area_m2, positive);
-    p.restitution       = f.real(t, "restitution", p.restitution, Bounds{0.0, 1.0, true, false});
-    p.second_mode_frequency_Hz =
-      f.real(t, "second_mode_frequency_Hz", p.second_mode_frequency_Hz, non_negative);
+    read_reals(f, t, reed_keys(), p, reed_properties);
     p.fluid_loading = f.text(t, "fluid_loading", p.fluid_loading, {"thesis", "map"});
-    p.structural_damping_ratio =
-      f.real(t, "structural_damping_ratio", p.structural_damping_ratio, Bounds{0.0, 1.0, true, false});
     if (p.fluid_loading == "thesis" && f.has(t, "structural_damping_ratio"))
       throw InputError(f.where(t, "structural_damping_ratio") +
                        ": read only with fluid_loading = \"map\" (the thesis's damping_ratio holds all of it)");
-    p.seat_film_m = f.real(t, "seat_film_m", p.seat_film_m, seat_film_bounds());
     p.film_suction_limit = f.text(t, "film_suction_limit", p.film_suction_limit, {"cavitation", "none"});
-    p.film_cavitation_pressure_Pa =
-      f.real(t, "film_cavitation_pressure_Pa", p.film_cavitation_pressure_Pa, Bounds::closed(0.0, 1e8));
     for (const char *key : {"seat_film_m", "film_suction_limit", "film_cavitation_pressure_Pa"})
       if (p.fluid_loading == "thesis" && f.has(t, key))
         throw InputError(f.where(t, key) + ": read only with fluid_loading = \"map\" (the squeeze film comes "
@@ -146,8 +270,7 @@ namespace rectify::system
                        ": must be above the first mode's " +
                        format_number(p.natural_frequency_Hz()) +
                        " Hz (or 0 for none)");
-    p.stop             = f.text(t, "stop", p.stop, {"on", "off"});
-    p.stop_restitution = f.real(t, "stop_restitution", p.stop_restitution, Bounds{0.0, 1.0, true, false});
+    p.stop = f.text(t, "stop", p.stop, {"on", "off"});
     return p;
   }
 
@@ -178,14 +301,7 @@ namespace rectify::system
       require_existing(f, t, "resistance_map", p.resistance_map, false);
     p.interpolation = f.text(t, "interpolation", p.interpolation, {"monotone-cubic", "log-linear", "linear", "log-log"});
     p.out_of_range  = f.text(t, "out_of_range", p.out_of_range, {"hold", "error"});
-    p.ideal_open_resistance_Pa_s_per_m3 = f.real(t, "ideal_open_resistance_Pa_s_per_m3",
-                                                 p.ideal_open_resistance_Pa_s_per_m3, positive);
-    p.leak_resistance_Pa_s_per_m3 =
-      f.real(t, "leak_resistance_Pa_s_per_m3", p.leak_resistance_Pa_s_per_m3, non_negative);
-    p.leak_area_m2 = f.real(t, "leak_area_m2", p.leak_area_m2, non_negative);
-    p.orifice_discharge_coefficient = f.real(t, "orifice_discharge_coefficient",
-                                             p.orifice_discharge_coefficient, Bounds::closed(0.0, 10.0));
-    p.orifice_perimeter_m = f.real(t, "orifice_perimeter_m", p.orifice_perimeter_m, non_negative);
+    read_reals(f, t, valve_keys(), p);
     return p;
   }
 
@@ -198,10 +314,7 @@ namespace rectify::system
   {
     LineParameters    p;
     const std::string t = "lines";
-    p.diameter_m = f.real(t, "diameter_m", p.diameter_m, positive);
-    p.length_m   = f.real(t, "length_m", p.length_m, positive);
-    p.outlet_inertance_Pa_s2_per_m3 =
-      f.real(t, "outlet_inertance_Pa_s2_per_m3", p.outlet_inertance_Pa_s2_per_m3, non_negative);
+    read_reals(f, t, line_keys(), p);
     p.outlet_line_segments = f.integer(t, "outlet_line_segments", p.outlet_line_segments, 1, 64);
     return p;
   }
@@ -209,37 +322,21 @@ namespace rectify::system
   CylinderParameters CylinderParameters::from_case(const CaseFile &f)
   {
     CylinderParameters p;
-    const std::string  t = "cylinder";
-    p.piston_area_m2  = f.real(t, "piston_area_m2", p.piston_area_m2, positive);
-    p.wetted_length_m = f.real(t, "wetted_length_m", p.wetted_length_m, positive);
-    p.high_side_fraction =
-      f.real(t, "high_side_fraction", p.high_side_fraction, Bounds::open(0.0, 1.0));
-    p.seal_compliance_m3_per_Pa =
-      f.real(t, "seal_compliance_m3_per_Pa", p.seal_compliance_m3_per_Pa, non_negative);
+    read_reals(f, "cylinder", cylinder_keys(), p);
     return p;
   }
 
   AccumulatorParameters AccumulatorParameters::from_case(const CaseFile &f)
   {
     AccumulatorParameters p;
-    p.gas_volume_m3 = f.real("accumulator", "gas_volume_m3", p.gas_volume_m3, positive);
+    read_reals(f, "accumulator", accumulator_keys(), p);
     return p;
   }
 
   LoadParameters LoadParameters::from_case(const CaseFile &f)
   {
-    LoadParameters    p;
-    const std::string t = "load";
-    p.mass_kg           = f.real(t, "mass_kg", p.mass_kg, positive);
-    p.damping_N_s_per_m = f.real(t, "damping_N_s_per_m", p.damping_N_s_per_m, non_negative);
-    p.stiffness_N_per_m = f.real(t, "stiffness_N_per_m", p.stiffness_N_per_m, non_negative);
-    p.no_flow_mass_kg   = f.real(t, "no_flow_mass_kg", p.no_flow_mass_kg, positive);
-    p.coulomb_friction_N = f.real(t, "coulomb_friction_N", p.coulomb_friction_N, non_negative);
-    p.friction_velocity_scale_m_per_s = f.real(t, "friction_velocity_scale_m_per_s",
-                                               p.friction_velocity_scale_m_per_s, positive);
-    p.static_friction_ratio =
-      f.real(t, "static_friction_ratio", p.static_friction_ratio, Bounds::closed(1.0, 100.0));
-    p.stribeck_velocity_m_per_s = f.real(t, "stribeck_velocity_m_per_s", p.stribeck_velocity_m_per_s, positive);
+    LoadParameters p;
+    read_reals(f, "load", load_keys(), p);
     return p;
   }
 
@@ -247,8 +344,7 @@ namespace rectify::system
   {
     DriveParameters   p;
     const std::string t = "drive";
-    p.current_pp_A   = f.real(t, "current_pp_A", p.current_pp_A, DriveParameters::current_pp_bounds());
-    p.current_bias_A = f.real(t, "current_bias_A", p.current_bias_A, DriveParameters::current_bias_bounds());
+    read_reals(f, t, drive_keys(), p);
     p.waveform       = f.text(t, "waveform", p.waveform);
     if (p.waveform != "sine")
       {
@@ -441,75 +537,41 @@ namespace rectify::system
     return p;
   }
 
-  std::string SystemParameters::inert_reason(const std::string &table, const std::string &key) const
-  {
-    if (table != "load")
-      return "";
-    const bool shape = key == "friction_velocity_scale_m_per_s" || key == "static_friction_ratio" ||
-                       key == "stribeck_velocity_m_per_s";
-    if (shape && !(load.coulomb_friction_N > 0))
-      return "no piston friction in this model ([load] coulomb_friction_N = 0)";
-    if (key == "stribeck_velocity_m_per_s" && !(load.static_friction_ratio > 1))
-      return "no Stribeck rise in this model ([load] static_friction_ratio = 1)";
-    return "";
-  }
-
   double *SystemParameters::real_field(const std::string &table, const std::string &key)
   {
-    const std::pair<const char *, double *> fields[] = {
-      {"fluid.density_kg_per_m3", &fluid.density_kg_per_m3},
-      {"fluid.viscosity_Pa_s", &fluid.viscosity_Pa_s},
-      {"fluid.bulk_modulus_Pa", &fluid.bulk_modulus_Pa},
-      {"fluid.entrained_air_fraction", &fluid.entrained_air_fraction},
-      {"fluid.gas_heat_capacity_ratio", &fluid.gas_heat_capacity_ratio},
-      {"fluid.bias_pressure_Pa", &fluid.bias_pressure_Pa},
-      {"fluid.free_air_fraction", &fluid.free_air_fraction},
-      {"transducer.rod_youngs_modulus_Pa", &transducer.rod_youngs_modulus_Pa},
-      {"transducer.rod_area_m2", &transducer.rod_area_m2},
-      {"transducer.rod_length_m", &transducer.rod_length_m},
-      {"transducer.diaphragm_stiffness_N_per_m", &transducer.diaphragm_stiffness_N_per_m},
-      {"transducer.effective_mass_kg", &transducer.effective_mass_kg},
-      {"transducer.damping_ratio", &transducer.damping_ratio},
-      {"transducer.coil_turns", &transducer.coil_turns},
-      {"transducer.piezomagnetic_coefficient_m_per_A", &transducer.piezomagnetic_coefficient_m_per_A},
-      {"transducer.coil_resistance_ohm", &transducer.coil_resistance_ohm},
-      {"transducer.coil_inductance_H", &transducer.coil_inductance_H},
-      {"chamber.height_m", &chamber.height_m},
-      {"chamber.piston_area_m2", &chamber.piston_area_m2},
-      {"chamber.fluid_damping_ratio", &chamber.fluid_damping_ratio},
-      {"reed.stiffness_N_per_m", &reed.stiffness_N_per_m},
-      {"reed.effective_mass_kg", &reed.effective_mass_kg},
-      {"reed.damping_ratio", &reed.damping_ratio},
-      {"reed.pressure_area_m2", &reed.pressure_area_m2},
-      {"reed.restitution", &reed.restitution},
-      {"reed.second_mode_frequency_Hz", &reed.second_mode_frequency_Hz},
-      {"reed.stop_restitution", &reed.stop_restitution},
-      {"valves.ideal_open_resistance_Pa_s_per_m3", &valves.ideal_open_resistance_Pa_s_per_m3},
-      {"valves.leak_resistance_Pa_s_per_m3", &valves.leak_resistance_Pa_s_per_m3},
-      {"valves.leak_area_m2", &valves.leak_area_m2},
-      {"valves.orifice_discharge_coefficient", &valves.orifice_discharge_coefficient},
-      {"valves.orifice_perimeter_m", &valves.orifice_perimeter_m},
-      {"lines.diameter_m", &lines.diameter_m},
-      {"lines.length_m", &lines.length_m},
-      {"lines.outlet_inertance_Pa_s2_per_m3", &lines.outlet_inertance_Pa_s2_per_m3},
-      {"cylinder.piston_area_m2", &cylinder.piston_area_m2},
-      {"cylinder.wetted_length_m", &cylinder.wetted_length_m},
-      {"cylinder.high_side_fraction", &cylinder.high_side_fraction},
-      {"cylinder.seal_compliance_m3_per_Pa", &cylinder.seal_compliance_m3_per_Pa},
-      {"accumulator.gas_volume_m3", &accumulator.gas_volume_m3},
-      {"load.mass_kg", &load.mass_kg},
-      {"load.damping_N_s_per_m", &load.damping_N_s_per_m},
-      {"load.stiffness_N_per_m", &load.stiffness_N_per_m},
-      {"load.coulomb_friction_N", &load.coulomb_friction_N},
-      {"load.friction_velocity_scale_m_per_s", &load.friction_velocity_scale_m_per_s},
-      {"load.static_friction_ratio", &load.static_friction_ratio},
-      {"load.stribeck_velocity_m_per_s", &load.stribeck_velocity_m_per_s},
-      {"drive.current_pp_A", &drive.current_pp_A},
-      {"drive.current_bias_A", &drive.current_bias_A}};
-    const std::string name = table + "." + key;
-    for (const auto &[n, field] : fields)
-      if (name == n)
-        return field;
+    if (table == "fluid") // common/fluid.h
+      {
+        const std::pair<const char *, double *> fields[] = {
+          {"density_kg_per_m3", &fluid.density_kg_per_m3},
+          {"viscosity_Pa_s", &fluid.viscosity_Pa_s},
+          {"bulk_modulus_Pa", &fluid.bulk_modulus_Pa},
+          {"entrained_air_fraction", &fluid.entrained_air_fraction},
+          {"gas_heat_capacity_ratio", &fluid.gas_heat_capacity_ratio},
+          {"bias_pressure_Pa", &fluid.bias_pressure_Pa},
+          {"free_air_fraction", &fluid.free_air_fraction}};
+        for (const auto &[n, field] : fields)
+          if (key == n)
+            return field;
+        return nullptr;
+      }
+    if (table == "transducer")
+      return find_real(transducer_keys(), transducer, key);
+    if (table == "chamber")
+      return find_real(chamber_keys(), chamber, key);
+    if (table == "reed")
+      return find_real(reed_keys(), reed, key);
+    if (table == "valves")
+      return find_real(valve_keys(), valves, key);
+    if (table == "lines")
+      return find_real(line_keys(), lines, key);
+    if (table == "cylinder")
+      return find_real(cylinder_keys(), cylinder, key);
+    if (table == "accumulator")
+      return find_real(accumulator_keys(), accumulator, key);
+    if (table == "load")
+      return find_real(load_keys(), load, key);
+    if (table == "drive")
+      return find_real(drive_keys(), drive, key);
     return nullptr;
   }
 
@@ -575,7 +637,7 @@ namespace rectify::system
   nlohmann::json SystemParameters::to_json() const
   {
     using nlohmann::json;
-    return json{
+    json j{
       {"fluid",
        {{"density_kg_per_m3", fluid.density_kg_per_m3},
         {"viscosity_Pa_s", fluid.viscosity_Pa_s},
@@ -587,37 +649,12 @@ namespace rectify::system
         {"free_air_law", fluid.free_air_law},
         {"cavitation", fluid.cavitation},
         {"cavitation_pressure_Pa", fluid.cavitation_pressure_Pa}}},
-      {"transducer",
-       {{"rod_youngs_modulus_Pa", transducer.rod_youngs_modulus_Pa},
-        {"rod_area_m2", transducer.rod_area_m2},
-        {"rod_length_m", transducer.rod_length_m},
-        {"diaphragm_stiffness_N_per_m", transducer.diaphragm_stiffness_N_per_m},
-        {"effective_mass_kg", transducer.effective_mass_kg},
-        {"damping_ratio", transducer.damping_ratio},
-        {"coil_turns", transducer.coil_turns},
-        {"piezomagnetic_coefficient_m_per_A", transducer.piezomagnetic_coefficient_m_per_A},
-        {"coil_resistance_ohm", transducer.coil_resistance_ohm},
-        {"coil_inductance_H", transducer.coil_inductance_H}}},
-      {"chamber",
-       {{"height_m", chamber.height_m},
-        {"piston_area_m2", chamber.piston_area_m2},
-        {"fluid_damping_ratio", chamber.fluid_damping_ratio}}},
       {"reed",
-       {{"stiffness_N_per_m", reed.stiffness_N_per_m},
-        {"effective_mass_kg", reed.effective_mass_kg},
-        {"damping_ratio", reed.damping_ratio},
-        {"pressure_area_m2", reed.pressure_area_m2},
-        {"restitution", reed.restitution},
-        {"second_mode_frequency_Hz", reed.second_mode_frequency_Hz},
-        {"fluid_loading", reed.fluid_loading},
-        {"structural_damping_ratio", reed.structural_damping_ratio},
-        {"seat_film_m", reed.seat_film_m},
+       {{"fluid_loading", reed.fluid_loading},
         {"film_suction_limit", reed.film_suction_limit},
-        {"film_cavitation_pressure_Pa", reed.film_cavitation_pressure_Pa},
         {"source", reed.source},
         {"stop", reed.stop},
         {"stop_lift_m", reed.stop_lift_m},
-        {"stop_restitution", reed.stop_restitution},
         {"root_stress_per_opening_Pa_per_m", reed.root_stress_per_opening_Pa_per_m},
         {"second_mode_root_stress_per_opening_Pa_per_m", reed.second_mode_root_stress_per_opening_Pa_per_m},
         {"stress_source", reed.stress_source},
@@ -633,43 +670,25 @@ namespace rectify::system
         {"inlet_map_set", valves.map_set[1]},
         {"resistance_map", valves.resistance_map},
         {"interpolation", valves.interpolation},
-        {"out_of_range", valves.out_of_range},
-        {"ideal_open_resistance_Pa_s_per_m3", valves.ideal_open_resistance_Pa_s_per_m3},
-        {"leak_resistance_Pa_s_per_m3", valves.leak_resistance_Pa_s_per_m3},
-        {"leak_area_m2", valves.leak_area_m2},
-        {"orifice_discharge_coefficient", valves.orifice_discharge_coefficient},
-        {"orifice_perimeter_m", valves.orifice_perimeter_m}}},
-      {"lines",
-       {{"diameter_m", lines.diameter_m},
-        {"length_m", lines.length_m},
-        {"outlet_inertance_Pa_s2_per_m3", lines.outlet_inertance_Pa_s2_per_m3},
-        {"outlet_line_segments", lines.outlet_line_segments}}},
-      {"cylinder",
-       {{"piston_area_m2", cylinder.piston_area_m2},
-        {"wetted_length_m", cylinder.wetted_length_m},
-        {"high_side_fraction", cylinder.high_side_fraction},
-        {"seal_compliance_m3_per_Pa", cylinder.seal_compliance_m3_per_Pa}}},
-      {"accumulator", {{"gas_volume_m3", accumulator.gas_volume_m3}}},
-      {"load",
-       {{"mass_kg", load.mass_kg},
-        {"damping_N_s_per_m", load.damping_N_s_per_m},
-        {"stiffness_N_per_m", load.stiffness_N_per_m},
-        {"no_flow_mass_kg", load.no_flow_mass_kg},
-        {"coulomb_friction_N", load.coulomb_friction_N},
-        {"friction_velocity_scale_m_per_s", load.friction_velocity_scale_m_per_s},
-        {"static_friction_ratio", load.static_friction_ratio},
-        {"stribeck_velocity_m_per_s", load.stribeck_velocity_m_per_s}}},
-      {"drive",
-       {{"current_pp_A", drive.current_pp_A},
-        {"current_bias_A", drive.current_bias_A},
-        {"waveform", drive.waveform},
-        {"coil_dynamics", drive.coil_dynamics}}},
+        {"out_of_range", valves.out_of_range}}},
+      {"lines", {{"outlet_line_segments", lines.outlet_line_segments}}},
+      {"drive", {{"waveform", drive.waveform}, {"coil_dynamics", drive.coil_dynamics}}},
       {"solver",
        {{"relative_tolerance", solver.relative_tolerance},
         {"absolute_tolerance_factor", solver.absolute_tolerance_factor},
         {"jacobian", solver.jacobian},
         {"samples_per_cycle", solver.samples_per_cycle},
         {"max_steps_per_cycle", solver.max_steps_per_cycle}}}};
+    put_reals(j["transducer"], transducer_keys(), transducer);
+    put_reals(j["chamber"], chamber_keys(), chamber);
+    put_reals(j["reed"], reed_keys(), reed);
+    put_reals(j["valves"], valve_keys(), valves);
+    put_reals(j["lines"], line_keys(), lines);
+    put_reals(j["cylinder"], cylinder_keys(), cylinder);
+    put_reals(j["accumulator"], accumulator_keys(), accumulator);
+    put_reals(j["load"], load_keys(), load);
+    put_reals(j["drive"], drive_keys(), drive);
+    return j;
   }
   void DriveParameters::check_currents(double pp_A, double bias_A, const std::string &pp_name,
                                        const std::string &bias_name)

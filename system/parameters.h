@@ -274,13 +274,6 @@ namespace rectify::system
       return *const_cast<SystemParameters *>(this)->real_field(table, key);
     }
 
-    /// Why [table] key does nothing in the model these parameters make, or
-    /// "" where it acts: the friction's shape without friction ([load]
-    /// coulomb_friction_N = 0), the Stribeck velocity without a Stribeck
-    /// rise (static_friction_ratio = 1). A diagnosis holds such an
-    /// [uncertain] parameter out of its fits until it acts.
-    std::string inert_reason(const std::string &table, const std::string &key) const;
-
     /// Reads every table; with map sets, checks each against the case's
     /// [geometry], [fluid] and [reed_material] and takes k_r and m_r from it.
     /// `read_map_sets` false: the map-set keys are read but the folders not

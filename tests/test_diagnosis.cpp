@@ -2,6 +2,8 @@
 // columns with units, the drive's frequency, clear errors for bad data.
 #include <gtest/gtest.h>
 
+#include <set>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -325,6 +327,8 @@ TEST(Diagnosis, EffectLibraryNamesBoundsAndKeys)
   ASSERT_EQ(effect_library().size(), expected.size());
   const auto base = system::SystemParameters::from_case(CaseFile::load(reference_case_path()));
   const auto map  = system::load_valve_maps(base);
+  const std::set<std::string> components{"outlet_compliance", "valve_leakage",  "valve_leakage_turbulent",
+                                         "orifice_flow",      "coil_dynamics",  "piston_friction"};
   for (std::size_t i = 0; i < expected.size(); ++i)
     {
       const auto &e = effect_library()[i];
@@ -346,7 +350,21 @@ TEST(Diagnosis, EffectLibraryNamesBoundsAndKeys)
                         system::Drive::from_samples({0, 1}, {1, 1}, 100, true, "v") :
                         system::Drive::sine(100, 20, 10));
       EXPECT_TRUE(m.needs_difference_jacobian()) << e->name();
+      // an effect that is a component of the model: the model holds it
+      // under the effect's name, alone (the base case has none on)
+      if (components.count(e->name()))
+        {
+          ASSERT_EQ(m.components().size(), 1u) << e->name();
+          EXPECT_EQ(m.components()[0]->name(), e->name());
+          EXPECT_NE(m.component(e->name()), nullptr);
+        }
+      else
+        EXPECT_TRUE(m.components().empty()) << e->name();
     }
+  EXPECT_TRUE(system::Model(base, map, system::ValveModel::dynamic, system::Scenario::loaded,
+                            system::Drive::sine(100, 20, 10))
+                .components()
+                .empty());
   EXPECT_EQ(find_effect("coil_dynamics")->not_testable({system::Scenario::no_flow, false}).empty(), false);
   EXPECT_EQ(find_effect("coil_dynamics")->not_testable({system::Scenario::no_flow, true}), "");
   EXPECT_NE(find_effect("piston_friction")->not_testable({system::Scenario::no_flow, true}), "");

@@ -9,6 +9,8 @@
 
 #include "common/case_file.h"
 #include "model_helpers.h"
+#include "system/components/piston_friction.h"
+#include "system/components/valve_leakage_turbulent.h"
 #include "system/integrator.h"
 #include "system/model.h"
 #include "system/simulation.h"
@@ -255,7 +257,9 @@ TEST(Effects, ATurbulentLeakSharesTheValvesDropAndTheLineTakesTheRest)
           const auto   map = reference_map(p);
           const double rho = p.fluid.density_kg_per_m3, A = 1e-7;
           const double K_L = rho / (2 * A * A);
-          EXPECT_DOUBLE_EQ(c.K_leak, K_L);
+          const auto *leak = dynamic_cast<const ValveLeakageTurbulent *>(m.component("valve_leakage_turbulent"));
+          ASSERT_NE(leak, nullptr);
+          EXPECT_DOUBLE_EQ(leak->drop_coefficient(), K_L);
           // the leaks' flow at a drop u
           const auto q_leak = [&](double u) {
             const double turbulent = u / std::sqrt(K_L * std::hypot(u, 1e3));
@@ -428,39 +432,41 @@ TEST(Effects, PistonFrictionHasAStribeckRiseAtLowSpeed)
   auto p                                 = reference();
   p.load.coulomb_friction_N              = 20;
   p.load.friction_velocity_scale_m_per_s = 0.5e-3;
-  Model coulomb = make(p, Scenario::loaded, 100, 4, 2);
+  Model coulomb_model = make(p, Scenario::loaded, 100, 4, 2);
+  const PistonFriction coulomb(p.load);
   for (double v : {-3e-3, -1e-4, 0.0, 2e-4, 1e-3, 5e-2})
-    EXPECT_EQ(coulomb.friction_force(v), 20 * std::tanh(v / 0.5e-3)) << v;
+    EXPECT_EQ(coulomb.force(v), 20 * std::tanh(v / 0.5e-3)) << v;
   p.load.static_friction_ratio     = 1.5;
   p.load.stribeck_velocity_m_per_s = 2e-3;
-  Model stribeck = make(p, Scenario::loaded, 100, 4, 2);
+  Model stribeck_model = make(p, Scenario::loaded, 100, 4, 2);
+  const PistonFriction stribeck(p.load);
   // at v = v_st the rise has fallen to 1/e of (r - 1)
-  EXPECT_NEAR(stribeck.friction_force(2e-3), 20 * (1 + 0.5 / std::exp(1.0)) * std::tanh(4.0), 1e-12);
-  EXPECT_NEAR(stribeck.friction_force(-2e-3), -stribeck.friction_force(2e-3), 1e-12);
-  EXPECT_EQ(stribeck.friction_force(0.0), 0.0);
+  EXPECT_NEAR(stribeck.force(2e-3), 20 * (1 + 0.5 / std::exp(1.0)) * std::tanh(4.0), 1e-12);
+  EXPECT_NEAR(stribeck.force(-2e-3), -stribeck.force(2e-3), 1e-12);
+  EXPECT_EQ(stribeck.force(0.0), 0.0);
   // the breakaway peak, above F_c and below r F_c, at a velocity between v_s and v_st
   double peak = 0, at = 0;
   for (double v = 1e-5; v < 1e-2; v *= 1.01)
-    if (stribeck.friction_force(v) > peak)
+    if (stribeck.force(v) > peak)
       {
-        peak = stribeck.friction_force(v);
+        peak = stribeck.force(v);
         at   = v;
       }
   EXPECT_GT(peak, 1.3 * 20);
   EXPECT_LT(peak, 1.5 * 20);
   EXPECT_GT(at, 0.5e-3);
   EXPECT_LT(at, 2e-3);
-  EXPECT_NEAR(stribeck.friction_force(5e-2), 20.0, 1e-9); // sliding fast: Coulomb's (exp(-625))
+  EXPECT_NEAR(stribeck.force(5e-2), 20.0, 1e-9); // sliding fast: Coulomb's (exp(-625))
   // in the actuator's equation of motion: the two models differ by the rise alone
-  std::vector<double> y(coulomb.n_states(), 0.0), a(coulomb.n_states()), b(coulomb.n_states());
+  std::vector<double> y(coulomb_model.n_states(), 0.0), a(coulomb_model.n_states()), b(coulomb_model.n_states());
   y[state::high_p]     = 2e6;
   y[state::actuator_v] = 1e-3;
-  coulomb.rhs(0.0, y, a);
-  stribeck.rhs(0.0, y, b);
-  const double m_l = coulomb.constants().m_l;
+  coulomb_model.rhs(0.0, y, a);
+  stribeck_model.rhs(0.0, y, b);
+  const double m_l = coulomb_model.constants().m_l;
   EXPECT_NEAR(a[state::actuator_v] - b[state::actuator_v],
-              (stribeck.friction_force(1e-3) - coulomb.friction_force(1e-3)) / m_l, 1e-9 * std::abs(a[state::actuator_v]));
-  EXPECT_NEAR(stribeck.friction_force(1e-3) - coulomb.friction_force(1e-3),
+              (stribeck.force(1e-3) - coulomb.force(1e-3)) / m_l, 1e-9 * std::abs(a[state::actuator_v]));
+  EXPECT_NEAR(stribeck.force(1e-3) - coulomb.force(1e-3),
               20 * 0.5 * std::exp(-0.25) * std::tanh(2.0), 1e-12);
 }
 

@@ -518,17 +518,17 @@ TEST(ForeignData, TheFrictionsShapeActsOnlyWithFriction)
   for (const auto &q : p.uncertain)
     {
       const bool shape = q.table == "load";
-      EXPECT_EQ(p.inert_reason(q.table, q.key).empty(), !shape) << q.name();
+      EXPECT_EQ(diagnosis::inert_reason(p, q.table, q.key).empty(), !shape) << q.name();
     }
-  EXPECT_NE(p.inert_reason("load", "static_friction_ratio").find("coulomb_friction_N = 0"), std::string::npos);
+  EXPECT_NE(diagnosis::inert_reason(p, "load", "static_friction_ratio").find("coulomb_friction_N = 0"), std::string::npos);
   p.load.coulomb_friction_N = 20;
-  EXPECT_EQ(p.inert_reason("load", "friction_velocity_scale_m_per_s"), "");
-  EXPECT_EQ(p.inert_reason("load", "static_friction_ratio"), "");
-  EXPECT_NE(p.inert_reason("load", "stribeck_velocity_m_per_s").find("static_friction_ratio = 1"),
+  EXPECT_EQ(diagnosis::inert_reason(p, "load", "friction_velocity_scale_m_per_s"), "");
+  EXPECT_EQ(diagnosis::inert_reason(p, "load", "static_friction_ratio"), "");
+  EXPECT_NE(diagnosis::inert_reason(p, "load", "stribeck_velocity_m_per_s").find("static_friction_ratio = 1"),
             std::string::npos);
   p.load.static_friction_ratio = 1.3;
-  EXPECT_EQ(p.inert_reason("load", "stribeck_velocity_m_per_s"), "");
-  EXPECT_EQ(p.inert_reason("lines", "diameter_m"), "");
+  EXPECT_EQ(diagnosis::inert_reason(p, "load", "stribeck_velocity_m_per_s"), "");
+  EXPECT_EQ(diagnosis::inert_reason(p, "lines", "diameter_m"), "");
 }
 
 // Nothing named, but the calibrated baseline took up a seal: a no-flow

@@ -1,0 +1,82 @@
+// An optional physical effect of the lumped model as one unit: its
+// constants (from the case's parameters), the states it adds, and the terms
+// it puts into the model's equations. `Model` composes the components that
+// make_components() returns for a case; each enters only through the hooks
+// below, so the thesis's model (no component) is computed exactly as
+// without them.
+//
+// Hooks, in the order the model meets them:
+//   adjust         the model's derived constants (a compliance added to a volume)
+//   add_to_branch  a valve's branch law: leak paths beside it, a quadratic drop through it
+//   current        the coil's current (instead of the drive's own, or V / R)
+//   actuator_force a force against the output piston's motion
+//   own_rhs        the derivatives of the component's own states
+//   own_reads      the states those derivatives and its terms read (the
+//                  coloured difference-quotient Jacobian's pattern)
+// No component has an analytic Jacobian part yet: a model with one on asks
+// CVODE for difference quotients (Model::needs_difference_jacobian).
+//
+// Adding one: docs/adding-an-effect.md.
+#pragma once
+
+#include <cstddef>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string_view>
+#include <vector>
+
+namespace rectify::system
+{
+  class Drive;
+  struct ModelConstants;
+  struct SystemParameters;
+  enum class Scenario;
+
+  /// What the components add to one valve's branch: the valve's R(x) with a
+  /// quadratic drop series_K q|q| through it while open, and beside it a
+  /// laminar leak (leak_resistance, 0 for none) and a turbulent orifice
+  /// (drop leak_K q|q|, 0 for none).
+  struct BranchLaw
+  {
+    double series_K        = 0.0;
+    double leak_resistance = 0.0;
+    double leak_K          = 0.0;
+  };
+
+  class Component
+  {
+  public:
+    virtual ~Component() = default;
+    /// The effect's name, as the diagnosis names it.
+    virtual std::string_view name() const = 0;
+    /// False where this drive leaves the effect without work (the coil's
+    /// inductance under a current drive): the model then leaves it out.
+    virtual bool acts(const Drive &) const { return true; }
+
+    virtual void adjust(ModelConstants &) const {}
+    /// Valve `valve` (0 outlet, 1 inlet); `opening`: its tip opening while
+    /// its reed is off the seat, none when shut or an ideal valve.
+    virtual void add_to_branch(std::size_t /*valve*/, std::optional<double> /*opening*/, BranchLaw &) const {}
+    /// The coil current at t, if this component gives it.
+    virtual std::optional<double> current(double /*t*/, std::span<const double> /*y*/, const Drive &) const
+    {
+      return std::nullopt;
+    }
+    /// Force against the output piston's motion at state y [N].
+    virtual double actuator_force(std::span<const double> /*y*/) const { return 0.0; }
+
+    /// Its own states' start (the model's initial_state()).
+    virtual void initial_state(std::span<double> /*y*/, const Drive &) const {}
+    virtual void own_rhs(double /*t*/, std::span<const double> /*y*/, const Drive &, std::span<double> /*ydot*/) const
+    {}
+    /// Adds to r[i] the states row i reads through this component.
+    virtual void own_reads(std::vector<std::vector<std::size_t>> & /*r*/) const {}
+  };
+
+  using Components = std::vector<std::shared_ptr<const Component>>;
+
+  /// The components the case's parameters switch on, in a fixed order (the
+  /// order their terms are summed in). system/components.cpp lists them.
+  Components make_components(const SystemParameters &p, Scenario scenario);
+} // namespace rectify::system
