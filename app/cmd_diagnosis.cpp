@@ -54,37 +54,6 @@ namespace rectify::app
         o.options.harmonics = std::stod(o.harmonics); // checked by the option's validator
     }
 
-    /// Each record read and prepared; what it ignores, repairs or
-    /// contradicts said on stderr.
-    std::vector<diagnosis::RunCase> read_runs(const DiagnoseCommandOptions &o, system::Scenario scenario,
-                                              double reed_Hz)
-    {
-      std::vector<diagnosis::RunCase> runs;
-      for (const auto &path : o.data)
-        {
-          auto run = diagnosis::MeasuredRun::read(path, o.frequency_Hz);
-          for (const auto &c : run.ignored_columns)
-            std::fprintf(stderr, "notice: '%s': column '%s' ignored (not a quantity the model predicts)\n",
-                         path.c_str(), c.c_str());
-          runs.push_back(diagnosis::make_run_case(std::move(run), scenario, o.frequency_Hz,
-                                                  o.options.training_fraction, o.options.repair_outliers,
-                                                  o.options.harmonics, reed_Hz));
-          for (const auto &x : runs.back().outliers)
-            std::fprintf(stderr, "notice: '%s': row %zu, %s: an isolated spike of %.3g (%.0f noise sd) replaced "
-                         "by its neighbours' mean\n", path.c_str(), x.row, x.column.c_str(), x.size, x.noise_units);
-          const auto &rc = runs.back();
-          if (scenario == system::Scenario::no_flow && rc.run.has("actuator_position_m"))
-            {
-              const auto &x = rc.run.signal("actuator_position_m");
-              if (*std::max_element(x.begin(), x.end()) - *std::min_element(x.begin(), x.end()) > 1e-4)
-                std::fprintf(stderr, "warning: '%s': the actuator moves %.3g mm, but the scenario is no-flow "
-                             "(--scenario loaded?)\n", path.c_str(),
-                             1e3 * (*std::max_element(x.begin(), x.end()) - *std::min_element(x.begin(), x.end())));
-            }
-        }
-      return runs;
-    }
-
     void echo(const DiagnoseCommandOptions &o, const std::vector<diagnosis::RunCase> &runs,
               const system::SystemParameters &p, const diagnosis::BaselineSecondMode &second_mode)
     {
@@ -180,7 +149,9 @@ namespace rectify::app
       in.second_mode                  = diagnosis::baseline_second_mode(p, scenario, o.reed_second_mode);
       p.reed.second_mode_frequency_Hz = in.second_mode.frequency_Hz;
       check_options(o, file);
-      const auto runs = read_runs(o, scenario, diagnosis::band_reed_frequency_Hz(p, scenario, o.options));
+      const auto runs = diagnosis::read_run_cases(o.data, scenario, o.frequency_Hz, o.options,
+                                                  diagnosis::band_reed_frequency_Hz(p, scenario, o.options),
+                                                  [](const std::string &line) { std::fprintf(stderr, "%s\n", line.c_str()); });
       echo(o, runs, p, in.second_mode);
       o.options.progress = [](const std::string &line) { std::fprintf(stderr, "  %s\n", line.c_str()); };
       const std::filesystem::path out(o.out_dir);
@@ -200,14 +171,7 @@ namespace rectify::app
           }
         catch (...)
           {
-            // a failure before any fit was kept leaves nothing behind
-            if (diagnosis::kept_fits(out) == 0)
-              {
-                diagnosis::remove_checkpoint(out);
-                std::error_code ec;
-                if (made_out && std::filesystem::is_empty(out, ec))
-                  std::filesystem::remove(out, ec);
-              }
+            diagnosis::discard_if_nothing_kept(out, made_out);
             throw;
           }
       }();

@@ -104,7 +104,6 @@ namespace rectify::diagnosis
     Combination                  combination_;
   };
 
-  /// Every effect of the library, in report order ("none" is not one of them).
   /// Why [table] key does nothing in the model the parameters p make, or ""
   /// where it acts: the friction's shape without friction ([load]
   /// coulomb_friction_N = 0), the Stribeck velocity without a Stribeck rise
@@ -112,6 +111,7 @@ namespace rectify::diagnosis
   /// parameter out of its fits until it acts.
   std::string inert_reason(const system::SystemParameters &p, const std::string &table, const std::string &key);
 
+  /// Every effect of the library, in report order ("none" is not one of them).
   const std::vector<std::shared_ptr<const Effect>> &effect_library();
   /// The effect called `name`; InputError listing the names if there is none.
   std::shared_ptr<const Effect> find_effect(const std::string &name);

@@ -189,4 +189,13 @@ namespace rectify::diagnosis
     for (const char *ext : {".csv", ".json"})
       std::filesystem::remove(kept_fits_file(dir, ext));
   }
+  void discard_if_nothing_kept(const std::filesystem::path &dir, bool made_dir)
+  {
+    if (kept_fits(dir) != 0)
+      return;
+    remove_checkpoint(dir);
+    std::error_code ec;
+    if (made_dir && std::filesystem::is_empty(dir, ec))
+      std::filesystem::remove(dir, ec);
+  }
 } // namespace rectify::diagnosis

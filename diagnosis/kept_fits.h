@@ -29,6 +29,10 @@ namespace rectify::diagnosis
   /// their removal (the diagnosis's results are written)
   std::size_t kept_fits(const std::filesystem::path &dir);
   void        remove_checkpoint(const std::filesystem::path &dir);
+  /// After a diagnosis failed: if no fit was kept, its checkpoint goes, and
+  /// the folder too where the diagnosis made it and left it empty (a
+  /// failure before any fit leaves nothing behind).
+  void        discard_if_nothing_kept(const std::filesystem::path &dir, bool made_dir);
 
   class FitStore
   {

@@ -391,4 +391,36 @@ namespace rectify::diagnosis
           options.progress("settling of " + rc.run.source + ": " + rc.settling_reason);
       }
   }
+  std::vector<RunCase> read_run_cases(const std::vector<std::string> &paths, system::Scenario scenario,
+                                      double frequency_Hz, const DiagnoseOptions &options, double reed_frequency_Hz,
+                                      const std::function<void(const std::string &)> &notice)
+  {
+    std::vector<RunCase> runs;
+    const auto           num = [](const char *format, double v) {
+      std::string text(static_cast<std::size_t>(std::snprintf(nullptr, 0, format, v)), '\0');
+      std::snprintf(text.data(), text.size() + 1, format, v);
+      return text;
+    };
+    for (const auto &path : paths)
+      {
+        auto run = MeasuredRun::read(path, frequency_Hz);
+        for (const auto &c : run.ignored_columns)
+          notice("notice: '" + path + "': column '" + c + "' ignored (not a quantity the model predicts)");
+        runs.push_back(make_run_case(std::move(run), scenario, frequency_Hz, options.training_fraction,
+                                     options.repair_outliers, options.harmonics, reed_frequency_Hz));
+        for (const auto &x : runs.back().outliers)
+          notice("notice: '" + path + "': row " + std::to_string(x.row) + ", " + x.column + ": an isolated spike of " +
+                 num("%.3g", x.size) + " (" + num("%.0f", x.noise_units) + " noise sd) replaced by its neighbours' mean");
+        const auto &rc = runs.back();
+        if (scenario == system::Scenario::no_flow && rc.run.has("actuator_position_m"))
+          {
+            const auto  &x     = rc.run.signal("actuator_position_m");
+            const double range = *std::max_element(x.begin(), x.end()) - *std::min_element(x.begin(), x.end());
+            if (range > 1e-4)
+              notice("warning: '" + path + "': the actuator moves " + num("%.3g", 1e3 * range) +
+                     " mm, but the scenario is no-flow (--scenario loaded?)");
+          }
+      }
+    return runs;
+  }
 } // namespace rectify::diagnosis

@@ -9,6 +9,7 @@
 // window set (settle).
 #pragma once
 
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -80,6 +81,15 @@ namespace rectify::diagnosis
   RunCase make_run_case(MeasuredRun run, system::Scenario scenario, double frequency_Hz,
                         double training_fraction, bool repair_outliers = true, double harmonics = 0,
                         double reed_frequency_Hz = 0);
+
+  /// Each record in `paths` read (measured frequency_Hz, 0: from the data)
+  /// and prepared by make_run_case with the options' training fraction,
+  /// outlier repair and harmonics; `notice` gets one line for each column
+  /// ignored, spike replaced, or contradiction with the scenario (an
+  /// actuator that moves in a no-flow run).
+  std::vector<RunCase> read_run_cases(const std::vector<std::string> &paths, system::Scenario scenario,
+                                      double frequency_Hz, const DiagnoseOptions &options, double reed_frequency_Hz,
+                                      const std::function<void(const std::string &)> &notice);
 
   /// The reed frequency make_run_case limits the band with: the outlet
   /// reed's natural frequency for a loaded run with options.harmonics_auto,

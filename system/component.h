@@ -54,6 +54,9 @@ namespace rectify::system
     /// inductance under a current drive): the model then leaves it out.
     virtual bool acts(const Drive &) const { return true; }
 
+    /// Applied by ModelConstants for every component the case switches on,
+    /// whatever the drive (ModelConstants knows none): a component whose
+    /// acts() can be false must not adjust constants.
     virtual void adjust(ModelConstants &) const {}
     /// Valve `valve` (0 outlet, 1 inlet); `opening`: its tip opening while
     /// its reed is off the seat, none when shut or an ideal valve.

@@ -34,7 +34,7 @@ namespace rectify::system
 
   // Each struct's real case keys, declared once: the table drives their
   // reading with its range (from_case), their access by name ([uncertain],
-  // real_field) and their place in summaries (to_json). Text and integer
+  // real_field, for those it marks) and their place in summaries (to_json). Text and integer
   // keys, and keys read with a condition, are read by the struct's from_case.
   namespace
   {
@@ -44,6 +44,7 @@ namespace rectify::system
       const char *key;
       double S::*field;
       Bounds      bounds;
+      bool        uncertain = true; ///< may be named in [uncertain] (real_field)
     };
     template <typename S>
     using RealKeys = std::vector<RealKey<S>>;
@@ -86,9 +87,10 @@ namespace rectify::system
         {"pressure_area_m2", &T::pressure_area_m2, positive},
         {"restitution", &T::restitution, Bounds{0.0, 1.0, true, false}},
         {"second_mode_frequency_Hz", &T::second_mode_frequency_Hz, non_negative},
-        {"structural_damping_ratio", &T::structural_damping_ratio, Bounds{0.0, 1.0, true, false}},
-        {"seat_film_m", &T::seat_film_m, ReedParameters::seat_film_bounds()},
-        {"film_cavitation_pressure_Pa", &T::film_cavitation_pressure_Pa, Bounds::closed(0.0, 1e8)},
+        // the map's squeeze film: read and summarised, not among the keys [uncertain] may name
+        {"structural_damping_ratio", &T::structural_damping_ratio, Bounds{0.0, 1.0, true, false}, false},
+        {"seat_film_m", &T::seat_film_m, ReedParameters::seat_film_bounds(), false},
+        {"film_cavitation_pressure_Pa", &T::film_cavitation_pressure_Pa, Bounds::closed(0.0, 1e8), false},
         {"stop_restitution", &T::stop_restitution, Bounds{0.0, 1.0, true, false}}};
       return keys;
     }
@@ -176,7 +178,7 @@ namespace rectify::system
     double *find_real(const RealKeys<S> &keys, S &p, const std::string &key)
     {
       for (const auto &k : keys)
-        if (key == k.key)
+        if (k.uncertain && key == k.key)
           return &(p.*k.field);
       return nullptr;
     }

@@ -531,6 +531,37 @@ TEST(ForeignData, TheFrictionsShapeActsOnlyWithFriction)
   EXPECT_EQ(diagnosis::inert_reason(p, "lines", "diameter_m"), "");
 }
 
+// [uncertain] names the real keys the parameter tables mark, and no other:
+// a table's key by its name, the map's squeeze film and an unknown key
+// refused with the case file and the key.
+TEST(ForeignData, UncertainNamesTheKeysOfTheParameterTables)
+{
+  const auto text = read_text(reference_case_path());
+  const auto with = [&](const std::string &line) {
+    return CaseFile::parse(text + line + "\n", "u.toml", reference_case_path().parent_path());
+  };
+  const auto p = system::SystemParameters::from_case(with("\"cylinder.seal_compliance_m3_per_Pa\" = [1e-14, 1e-12]"));
+  ASSERT_FALSE(p.uncertain.empty());
+  EXPECT_EQ(p.uncertain.back().name(), "cylinder.seal_compliance_m3_per_Pa");
+  EXPECT_TRUE(p.uncertain.back().off_at_zero);
+  auto q = p;
+  ASSERT_NE(q.real_field("cylinder", "seal_compliance_m3_per_Pa"), nullptr);
+  *q.real_field("cylinder", "seal_compliance_m3_per_Pa") = 3e-13;
+  EXPECT_EQ(q.cylinder.seal_compliance_m3_per_Pa, 3e-13);
+  EXPECT_EQ(q.to_json()["cylinder"]["seal_compliance_m3_per_Pa"].get<double>(), 3e-13);
+  for (const std::string key : {"reed.seat_film_m", "reed.no_such_key_m"})
+    try
+      {
+        system::SystemParameters::from_case(with("\"" + key + "\" = [1e-6, 1e-5]"));
+        ADD_FAILURE() << key;
+      }
+    catch (const InputError &e)
+      {
+        EXPECT_NE(std::string(e.what()).find("u.toml"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("no real parameter [reed] " + key.substr(5)), std::string::npos) << e.what();
+      }
+}
+
 // Nothing named, but the calibrated baseline took up a seal: a no-flow
 // record tells the high side's compliance, the oil column's
 // (A_po x high-side share x wetted length / beta) plus the seal's, not the
