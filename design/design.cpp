@@ -223,11 +223,10 @@ namespace rectify::design
     /// The map set's manifest.json: provenance, settings, the reed's modes,
     /// how far the openings reach, every solved opening and the
     /// interpolation checks.
-    nlohmann::json map_set_manifest(const CaseFile &file, const ReedStage &rs, const stokes::SweepResult &sweep,
-                                    unsigned n_processes, double wall_time_s)
+    nlohmann::json map_set_manifest(const CaseFile &file, const stiffness::StiffnessParameters &sp,
+                                    const stokes::SweepSettings &ss, const ReedStage &rs,
+                                    const stokes::SweepResult &sweep, unsigned n_processes, double wall_time_s)
     {
-      const auto  sp   = stiffness::StiffnessParameters::from_case(file);
-      const auto  ss   = stokes::SweepSettings::from_case(file);
       const auto  deps = map_set_provenance(file);
       const auto &pts  = sweep.points;
     nlohmann::json checks = nlohmann::json::array(), points = nlohmann::json::array(),
@@ -287,10 +286,10 @@ namespace rectify::design
     /// opening, A_eff(x), the seated area, the reed, and the fluid's
     /// loading where every opening has it (its largest asymmetry in
     /// max_asymmetry).
-    maps::MapSet assemble_map_set(const CaseFile &file, const std::filesystem::path &out, const ReedStage &rs,
+    maps::MapSet assemble_map_set(const CaseFile &file, const stiffness::StiffnessParameters &sp,
+                                  const std::filesystem::path &out, const ReedStage &rs,
                                   const stokes::SweepResult &sweep, nlohmann::json manifest, double &max_asymmetry)
     {
-      const auto  sp  = stiffness::StiffnessParameters::from_case(file);
       const auto  mp  = flow_mesh_parameters(file, out / "reed");
       const auto &pts = sweep.points;
       std::vector<double> x{0.0}, R{1e17}, xa, A;
@@ -399,11 +398,10 @@ namespace rectify::design
     }
 
     /// report.md: the reed, R(x) and A_eff(x) per opening, the fluid's loading.
-    std::string map_set_report(const CaseFile &file, const std::string &made_by, const ReedStage &rs,
+    std::string map_set_report(const CaseFile &file, const stiffness::StiffnessParameters &sp,
+                               const stokes::SweepSettings &ss, const std::string &made_by, const ReedStage &rs,
                                const stokes::SweepResult &sweep, const maps::MapSet &set, double max_asymmetry)
     {
-      const auto   sp           = stiffness::StiffnessParameters::from_case(file);
-      const auto   ss           = stokes::SweepSettings::from_case(file);
       const auto  &pts          = sweep.points;
       const double seated       = set.seated_area_m2();
       const bool   with_loading = set.loading().has_value();
@@ -479,11 +477,13 @@ namespace rectify::design
                              const stokes::SweepResult &sweep, unsigned n_processes, double wall_time_s,
                              const std::string &made_by)
   {
+    const auto sp            = stiffness::StiffnessParameters::from_case(file);
+    const auto ss            = stokes::SweepSettings::from_case(file);
     double     max_asymmetry = 0;
-    const auto set = assemble_map_set(file, out, rs, sweep, map_set_manifest(file, rs, sweep, n_processes, wall_time_s),
-                                      max_asymmetry);
-    write_map_tables(out, set, rs, sweep, stokes::SweepSettings::from_case(file));
-    const std::string report = map_set_report(file, made_by, rs, sweep, set, max_asymmetry);
+    const auto set = assemble_map_set(file, sp, out, rs, sweep,
+                                      map_set_manifest(file, sp, ss, rs, sweep, n_processes, wall_time_s), max_asymmetry);
+    write_map_tables(out, set, rs, sweep, ss);
+    const std::string report = map_set_report(file, sp, ss, made_by, rs, sweep, set, max_asymmetry);
     set.write(out);
     write_file_atomic(out / "report.md", report);
     DesignResult result = design_result(rs, sweep, wall_time_s);
