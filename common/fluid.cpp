@@ -1,8 +1,5 @@
 #include "common/fluid.h"
 
-#include <algorithm>
-#include <cmath>
-
 namespace rectify
 {
   namespace
@@ -15,35 +12,6 @@ namespace rectify
     const double gas_bulk_modulus = gas_heat_capacity_ratio * bias_pressure_Pa; // eq. 3.25
     return 1.0 / ((1.0 - entrained_air_fraction) / bulk_modulus_Pa +
                   entrained_air_fraction / gas_bulk_modulus); // eq. 3.26
-  }
-
-  namespace
-  {
-    double absolute_floor(double p_bias, double p_gauge)
-    {
-      return std::max(p_bias + p_gauge, 0.01 * p_bias);
-    }
-  } // namespace
-
-  double FluidParameters::free_air_compliance_per_volume(double p_gauge) const
-  {
-    if (free_air_fraction == 0.0)
-      return 0.0;
-    if (free_air_law == "constant-modulus")
-      return free_air_fraction / (gas_heat_capacity_ratio * bias_pressure_Pa);
-    const double p = absolute_floor(bias_pressure_Pa, p_gauge);
-    return free_air_fraction * std::pow(bias_pressure_Pa / p, 1.0 / gas_heat_capacity_ratio) /
-           (gas_heat_capacity_ratio * p);
-  }
-
-  double FluidParameters::free_air_volume_change_per_volume(double p_gauge) const
-  {
-    if (free_air_fraction == 0.0)
-      return 0.0;
-    if (free_air_law == "constant-modulus")
-      return free_air_fraction * p_gauge / (gas_heat_capacity_ratio * bias_pressure_Pa);
-    const double p = absolute_floor(bias_pressure_Pa, p_gauge);
-    return free_air_fraction * (1.0 - std::pow(bias_pressure_Pa / p, 1.0 / gas_heat_capacity_ratio));
   }
 
   FluidParameters FluidParameters::from_case(const CaseFile &f)

@@ -18,10 +18,11 @@ namespace rectify
     double gas_heat_capacity_ratio = 1.4;               ///< gamma in eq. 3.25
     double bias_pressure_Pa        = 2.582e6;           ///< see reference.toml
     /// Free (undissolved) air: gas volume per oil volume at the bias
-    /// pressure, compressed polytropically (exponent gamma) with the local
-    /// pressure, so the oil's compliance depends on pressure (the diagnosis
-    /// effect `entrained_air`). 0: none. Unlike entrained_air_fraction, which
-    /// eq. 3.26 folds into one constant bulk modulus at the bias pressure.
+    /// pressure, compressed with the local pressure, so the oil's compliance
+    /// depends on pressure (the model's component system/components/free_air.h,
+    /// the diagnosis effect `entrained_air`). 0: none. Unlike
+    /// entrained_air_fraction, which eq. 3.26 folds into one constant bulk
+    /// modulus at the bias pressure.
     double free_air_fraction       = 0.0;
     /// How free air's volume follows pressure: "polytropic" (the gas law,
     /// V ~ p^(-1/gamma): soft at low pressure) or "constant-modulus" (a
@@ -42,15 +43,6 @@ namespace rectify
 
     /// eq. 3.26 with beta_gas = gamma p_bias (eq. 3.25).
     double effective_bulk_modulus_Pa() const;
-    /// Compliance per unit oil volume of the free air at gauge pressure
-    /// `p_gauge` about the bias [1/Pa]: d(V_gas/V)/dp = alpha (p_b/p)^(1/gamma) / (gamma p),
-    /// p absolute, floored at 1 % of the bias pressure (cavitation is not
-    /// modelled); alpha / (gamma p_b) for the constant-modulus law.
-    double free_air_compliance_per_volume(double p_gauge) const;
-    /// Gas volume per oil volume lost from the bias state to `p_gauge`:
-    /// alpha (1 - (p_b/p)^(1/gamma)) (the integral of the compliance above;
-    /// alpha (p - p_b) / (gamma p_b) for the constant-modulus law).
-    double free_air_volume_change_per_volume(double p_gauge) const;
     static FluidParameters from_case(const CaseFile &file);
   };
 

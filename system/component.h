@@ -10,6 +10,7 @@
 //   add_to_branch  a valve's branch law: leak paths beside it, a quadratic drop through it
 //   current        the coil's current (instead of the drive's own, or V / R)
 //   actuator_force a force against the output piston's motion
+//   gas_...        free gas in the oil: every volume's compliance per unit of its oil
 //   own_rhs        the derivatives of the component's own states
 //   own_reads      the states those derivatives and its terms read (the
 //                  coloured difference-quotient Jacobian's pattern)
@@ -68,6 +69,11 @@ namespace rectify::system
     }
     /// Force against the output piston's motion at state y [N].
     virtual double actuator_force(std::span<const double> /*y*/) const { return 0.0; }
+    /// Free gas in the oil: the compliance it adds per unit oil volume at
+    /// gauge pressure p [1/Pa], and the gas volume per oil volume it loses
+    /// from the bias state to p (the integral of the former from 0).
+    virtual double gas_compliance_per_volume(double /*p_gauge*/) const { return 0.0; }
+    virtual double gas_volume_change_per_volume(double /*p_gauge*/) const { return 0.0; }
 
     /// Its own states' start (the model's initial_state()).
     virtual void initial_state(std::span<double> /*y*/, const Drive &) const {}

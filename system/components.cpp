@@ -3,6 +3,7 @@
 #include "system/component.h"
 
 #include "system/components/coil_dynamics.h"
+#include "system/components/free_air.h"
 #include "system/components/orifice_flow.h"
 #include "system/components/outlet_compliance.h"
 #include "system/components/piston_friction.h"
@@ -15,6 +16,7 @@ namespace rectify::system
   {
     using Factory = std::shared_ptr<const Component> (*)(const SystemParameters &, Scenario);
     static constexpr Factory factories[] = {
+      &FreeAir::make,
       &OutletCompliance::make,
       &ValveLeakage::make,
       &ValveLeakageTurbulent::make,

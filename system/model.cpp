@@ -70,7 +70,6 @@ namespace rectify::system
     p_bias       = p.fluid.bias_pressure_Pa;
     out_of_range = maps::parse_out_of_range(p.valves.out_of_range);
 
-    fluid  = p.fluid;
     V_ch   = V_c;
     V_h    = A_po * p.cylinder.high_side_fraction * p.cylinder.wetted_length_m;
     V_l    = A_po * (1.0 - p.cylinder.high_side_fraction) * p.cylinder.wetted_length_m;
@@ -289,10 +288,26 @@ namespace rectify::system
       cavitating_[k] = y[cavity_nodes_[k]] < p_cavitation_;
   }
 
+  double Model::gas_compliance(double p) const
+  {
+    double C = 0.0;
+    for (const auto &c : components_)
+      C += c->gas_compliance_per_volume(p);
+    return C;
+  }
+
+  double Model::gas_volume_change(double p) const
+  {
+    double v = 0.0;
+    for (const auto &c : components_)
+      v += c->gas_volume_change_per_volume(p);
+    return v;
+  }
+
   double Model::node_compliance(std::size_t k, double p) const
   {
     const std::size_t i   = cavity_nodes_[k];
-    const auto        air = [&](double V) { return V * c_.fluid.free_air_compliance_per_volume(p); };
+    const auto        air = [&](double V) { return V * gas_compliance(p); };
     if (i == state::chamber_p)
       return c_.C_ch + air(c_.V_ch);
     if (i == state::high_p)
@@ -400,7 +415,7 @@ namespace rectify::system
 
   bool Model::needs_difference_jacobian() const
   {
-    return !components_.empty() || c_.fluid.free_air_fraction > 0 || c_.L_line > 0 || c_.k_r2 > 0 || loading_;
+    return !components_.empty() || c_.L_line > 0 || c_.k_r2 > 0 || loading_;
   }
 
   double Model::opening(std::size_t v, std::span<const double> y) const
@@ -455,7 +470,7 @@ namespace rectify::system
       {
         const double p      = y[state::line_segment_node(k)];
         const auto   liquid = [&](double q) {
-          return c_.C_line_node * q + c_.V_line_node * c_.fluid.free_air_volume_change_per_volume(q);
+          return c_.C_line_node * q + c_.V_line_node * gas_volume_change(q);
         };
         v += cavity_nodes_.empty() || !(p < p_cavitation_) ?
                liquid(p) :
@@ -468,10 +483,10 @@ namespace rectify::system
   {
     const auto liquid = [&](double q) {
       if (node == 3) // the node between the outlet valve and an inertial line
-        return c_.C_node * q + c_.V_node * c_.fluid.free_air_volume_change_per_volume(q);
+        return c_.C_node * q + c_.V_node * gas_volume_change(q);
       const double V = node == 0 ? c_.V_ch : node == 1 ? c_.V_h : c_.V_l;
       const double C = node == 0 ? c_.C_ch : node == 1 ? c_.C_h : c_.C_l;
-      return C * q + V * c_.fluid.free_air_volume_change_per_volume(q);
+      return C * q + V * gas_volume_change(q);
     };
     if (cavity_nodes_.empty() || !(p < p_cavitation_))
       return liquid(p);
@@ -813,9 +828,9 @@ namespace rectify::system
       }
 
     // Compliances, with the free air's pressure dependence.
-    const double C_ch = c_.C_ch + c_.V_ch * c_.fluid.free_air_compliance_per_volume(y[chamber_p]);
-    const double C_h  = c_.C_h + c_.V_h * c_.fluid.free_air_compliance_per_volume(y[high_p]);
-    const double C_l  = c_.C_l + c_.V_l * c_.fluid.free_air_compliance_per_volume(y[low_p]);
+    const double C_ch = c_.C_ch + c_.V_ch * gas_compliance(y[chamber_p]);
+    const double C_h  = c_.C_h + c_.V_h * gas_compliance(y[high_p]);
+    const double C_l  = c_.C_l + c_.V_l * gas_compliance(y[low_p]);
     ydot[chamber_p]     = (c_.A_pi * y[piston_v] + f.q_inlet - f.q_outlet) / C_ch;
     ydot[accumulator_p] = f.q_accumulator / c_.C_acc;
     ydot[high_p]        = (f.q_line - c_.A_po * y[actuator_v]) / C_h;
@@ -841,9 +856,9 @@ namespace rectify::system
             const double p_next  = k + 1 < n ? y[line_segment_node(k + 1)] : y[high_p];
             ydot[iq]             = (y[ip] - p_next - c_.R3 / nn * y[iq]) / (c_.L_line / nn);
             const double q_in    = k == 0 ? f.q_outlet : y[line_segment_flow(k - 1)];
-            const double C       = k == 0 ? c_.C_node + c_.V_node * c_.fluid.free_air_compliance_per_volume(y[ip]) :
+            const double C       = k == 0 ? c_.C_node + c_.V_node * gas_compliance(y[ip]) :
                                             c_.C_line_node +
-                                        c_.V_line_node * c_.fluid.free_air_compliance_per_volume(y[ip]);
+                                        c_.V_line_node * gas_compliance(y[ip]);
             ydot[ip] = (q_in - y[iq]) / C;
           }
       }

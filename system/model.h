@@ -127,7 +127,6 @@ namespace rectify::system
     maps::OutOfRange out_of_range;
     // The effects the model holds in its core (0 = off); the others are
     // components (system/component.h), which adjust() these constants.
-    FluidParameters fluid;         ///< for the free air's pressure-dependent compliance
     double V_ch, V_h, V_l;         ///< oil volumes of the chamber, high and low sides
     double L_line;                 ///< outlet-line inertance
     double C_node;                 ///< oil between the outlet valve and the line (with L_line)
@@ -342,6 +341,10 @@ namespace rectify::system
     /// without a copy where nothing is.
     template <typename F>
     void with_physical(std::span<const double> y, const F &f) const;
+    /// The components' free gas per unit oil volume at gauge pressure p:
+    /// its compliance and its volume lost from the bias state (0 without).
+    double gas_compliance(double p) const;
+    double gas_volume_change(double p) const;
     /// The compliance of volume node k (a cavity_nodes_ index) at gauge pressure p.
     double node_compliance(std::size_t k, double p) const;
     /// A seat or stop root of valve v with one mode (x, v: its tip).

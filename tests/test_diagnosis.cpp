@@ -327,8 +327,9 @@ TEST(Diagnosis, EffectLibraryNamesBoundsAndKeys)
   ASSERT_EQ(effect_library().size(), expected.size());
   const auto base = system::SystemParameters::from_case(CaseFile::load(reference_case_path()));
   const auto map  = system::load_valve_maps(base);
-  const std::set<std::string> components{"outlet_compliance", "valve_leakage",  "valve_leakage_turbulent",
-                                         "orifice_flow",      "coil_dynamics",  "piston_friction"};
+  const std::set<std::string> components{"entrained_air", "entrained_air_constant_modulus", "outlet_compliance",
+                                         "valve_leakage", "valve_leakage_turbulent",        "orifice_flow",
+                                         "coil_dynamics", "piston_friction"};
   for (std::size_t i = 0; i < expected.size(); ++i)
     {
       const auto &e = effect_library()[i];

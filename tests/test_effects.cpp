@@ -9,6 +9,7 @@
 
 #include "common/case_file.h"
 #include "model_helpers.h"
+#include "system/components/free_air.h"
 #include "system/components/piston_friction.h"
 #include "system/components/valve_leakage_turbulent.h"
 #include "system/integrator.h"
@@ -191,17 +192,30 @@ TEST(Effects, FreeAirStoredVolumeIsTheIntegralOfItsCompliance)
 {
   FluidParameters fl;
   fl.free_air_fraction = 0.01;
-  EXPECT_EQ(fl.free_air_volume_change_per_volume(0.0), 0.0);
-  // at the bias: alpha / (gamma p_b), eq. 3.25's gas bulk modulus
-  EXPECT_NEAR(fl.free_air_compliance_per_volume(0.0),
-              0.01 / (fl.gas_heat_capacity_ratio * fl.bias_pressure_Pa), 1e-20);
-  for (double p : {-2e6, -5e5, 1e6, 8e6})
+  for (const char *law : {"polytropic", "constant-modulus"})
     {
-      const double h  = 1e-5 * std::abs(p);
-      const double dv = (fl.free_air_volume_change_per_volume(p + h) -
-                         fl.free_air_volume_change_per_volume(p - h)) / (2 * h);
-      EXPECT_NEAR(dv, fl.free_air_compliance_per_volume(p), 1e-6 * fl.free_air_compliance_per_volume(p)) << p;
+      fl.free_air_law = law;
+      const FreeAir air(fl);
+      EXPECT_EQ(air.name(), fl.free_air_law == "polytropic" ? "entrained_air" : "entrained_air_constant_modulus");
+      EXPECT_EQ(air.gas_volume_change_per_volume(0.0), 0.0);
+      // at the bias: alpha / (gamma p_b), eq. 3.25's gas bulk modulus
+      EXPECT_NEAR(air.gas_compliance_per_volume(0.0), 0.01 / (fl.gas_heat_capacity_ratio * fl.bias_pressure_Pa),
+                  1e-20);
+      for (double p : {-2e6, -5e5, 1e6, 8e6})
+        {
+          const double h  = 1e-5 * std::abs(p);
+          const double dv = (air.gas_volume_change_per_volume(p + h) - air.gas_volume_change_per_volume(p - h)) / (2 * h);
+          EXPECT_NEAR(dv, air.gas_compliance_per_volume(p), 1e-6 * air.gas_compliance_per_volume(p)) << law << " " << p;
+        }
     }
+  // the gas law: twice the compliance where the absolute pressure is
+  // 2^(-gamma / (1 + gamma)) of the bias's
+  fl.free_air_law      = "polytropic";
+  const FreeAir  air(fl);
+  const double   g = fl.gas_heat_capacity_ratio, pb = fl.bias_pressure_Pa;
+  const double   p_half = pb * std::pow(2.0, -g / (1.0 + g)) - pb;
+  EXPECT_NEAR(air.gas_compliance_per_volume(p_half), 2.0 * air.gas_compliance_per_volume(0.0),
+              1e-12 * air.gas_compliance_per_volume(0.0));
 }
 
 TEST(Effects, LeakAndOrificeFlowsSatisfyTheirBranchLawsAndKirchhoff)
@@ -753,7 +767,7 @@ TEST(Effects, InertialLineFeedsTheHighSideThroughItsOwnNode)
   m.rhs(0.0, y, ydot);
   std::vector<double> ydot_air(ma.n_states());
   ma.rhs(0.0, y, ydot_air);
-  const double C_air = ca.C_node + ca.V_node * pa.fluid.free_air_compliance_per_volume(0.9e6);
+  const double C_air = ca.C_node + ca.V_node * FreeAir(pa.fluid).gas_compliance_per_volume(0.9e6);
   EXPECT_NEAR(ydot_air[state::line_node_p], (ma.flows(y).q_outlet - 1e-6) / C_air,
               1e-9 * std::abs((ma.flows(y).q_outlet - 1e-6) / C_air));
   EXPECT_LT(ydot_air[state::line_node_p], 0.9 * ydot[state::line_node_p]); // the air softens it
