@@ -2,15 +2,11 @@
 // effect found, named and added (diagnosis/). This command reads and checks
 // its options, echoes them, runs the diagnosis and prints its answer; the
 // report (diagnosis/report.h) writes the folder.
-#include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 
 #include "app/commands.h"
-#include "common/io.h"
 #include "common/output_lock.h"
-#include "common/version.h"
 #include "diagnosis/diagnose.h"
 #include "diagnosis/effect.h"
 #include "diagnosis/kept_fits.h"
@@ -54,6 +50,24 @@ namespace rectify::app
         o.options.harmonics = std::stod(o.harmonics); // checked by the option's validator
     }
 
+    std::string joined(const std::vector<std::string> &items, const char *separator)
+    {
+      std::string s;
+      for (const auto &item : items)
+        s += (s.empty() ? "" : separator) + item;
+      return s;
+    }
+
+    std::string sensors_text(const diagnosis::DiagnoseOptions &o)
+    {
+      if (o.sensor_lowest_bandwidth_Hz.empty())
+        return "ideal";
+      std::string s = "a first-order lag per signal, fitted to the final model down to:";
+      for (const auto &[signal, f] : o.sensor_lowest_bandwidth_Hz)
+        s += " " + signal + " " + format_number(f) + " Hz";
+      return s;
+    }
+
     void echo(const DiagnoseCommandOptions &o, const std::vector<diagnosis::RunCase> &runs,
               const system::SystemParameters &p, const diagnosis::BaselineSecondMode &second_mode)
     {
@@ -69,12 +83,8 @@ namespace rectify::app
       echo_settings("diagnose", {{"case", o.case_path},
                                  {"data", data_list},
                                  {"scenario", o.scenario},
-                                 {"candidates", o.options.effects.empty() ? "all: " + diagnosis::effect_names() : [&] {
-                                    std::string s;
-                                    for (const auto &e : o.options.effects)
-                                      s += (s.empty() ? "" : ", ") + e;
-                                    return s;
-                                  }()},
+                                 {"candidates", o.options.effects.empty() ? "all: " + diagnosis::effect_names() :
+                                                                            joined(o.options.effects, ", ")},
                                  {"nuisance", "force gain in 1 +- " + format_number(o.options.gain_range) +
                                                 (p.uncertain.empty() ? std::string() : [&] {
                                                   std::string s = "; [uncertain]:";
@@ -91,29 +101,8 @@ namespace rectify::app
                                                                                    " training cycles in all" :
                                                                                  std::string("every training cycle"))},
                                  {"rounds", std::to_string(o.options.rounds)},
-                                 {"sensors", [&] {
-                                    if (o.options.sensor_lowest_bandwidth_Hz.empty())
-                                      return std::string("ideal");
-                                    std::string s = "a first-order lag per signal, fitted to the final model down to:";
-                                    for (const auto &[signal, f] : o.options.sensor_lowest_bandwidth_Hz)
-                                      s += " " + signal + " " + format_number(f) + " Hz";
-                                    return s;
-                                  }()},
+                                 {"sensors", sensors_text(o.options)},
                                  {"out", o.out_dir}});
-    }
-
-    /// What makes the candidates' fits the same: a resumed run takes the
-    /// kept fits only where this is unchanged.
-    nlohmann::json fingerprint(const DiagnoseCommandOptions &o)
-    {
-      nlohmann::json data_hashes = nlohmann::json::array();
-      for (const auto &d : o.data)
-        data_hashes.push_back(file_hash(d));
-      return {{"revision", source_revision()},
-              {"version", RECTIFY_VERSION},
-              {"settings", o.settings},
-              {"case", file_hash(o.case_path)},
-              {"data", data_hashes}};
     }
 
     void print_answer(const diagnosis::DiagnosisResult &result, const std::filesystem::path &out,
@@ -163,18 +152,9 @@ namespace rectify::app
       // command, interrupted, takes them up again (DiagnoseOptions).
       lock.acquire(out); // made now (the maps read: bad input leaves none)
       o.options.checkpoint_dir         = out;
-      o.options.checkpoint_fingerprint = fingerprint(o);
-      const auto result = [&] {
-        try
-          {
-            return diagnosis::diagnose(p, map, runs, o.options);
-          }
-        catch (...)
-          {
-            diagnosis::discard_if_nothing_kept(out, made_out);
-            throw;
-          }
-      }();
+      o.options.checkpoint_fingerprint = diagnosis::checkpoint_fingerprint(o.settings, o.case_path, o.data);
+      o.options.checkpoint_dir_made    = made_out;
+      const auto result                = diagnosis::diagnose(p, map, runs, o.options);
       in.case_path       = o.case_path;
       in.case_file       = file.name();
       in.scenario        = o.scenario;
@@ -182,109 +162,103 @@ namespace rectify::app
       in.case_parameters = p;
       in.options         = o.options;
       in.load_case       = [](const std::filesystem::path &path) { return load_case(path); };
-      in.summary_extra   = {{"command", "diagnose"},
-                            {"rectify_version", RECTIFY_VERSION},
-                            {"build", build_info()},
-                            {"case", o.case_path},
-                            {"scenario", o.scenario},
-                            {"baseline_second_mode",
-                             {{"frequency_Hz", in.second_mode.frequency_Hz}, {"reason", in.second_mode.reason}}},
-                            {"data", o.data}};
       const auto case_name = diagnosis::write_report(result, runs, map, in, out, made_out);
       print_answer(result, out, case_name);
       diagnosis::remove_checkpoint(out); // complete: nothing left to resume
     }
 
+    /// How each candidate is fitted and compared.
+    void add_fit_options(CLI::App &cmd, DiagnoseCommandOptions &o)
+    {
+      cmd.add_option("--training-fraction", o.options.training_fraction,
+                     "part of each run the fit sees; the rest is held out")->capture_default_str();
+      cmd.add_option("--compared-cycles", o.options.compared_cycles,
+                     "the candidates are fitted and compared on at most this many training cycles in all, "
+                     "the same number from each run; the named effect is then refitted on all (0: all)")
+        ->check(CLI::Range(0.0, 1e6))
+        ->capture_default_str();
+      cmd.add_option("--max-evaluations", o.options.max_evaluations, "optimiser evaluations per candidate")
+        ->check(CLI::Range(1, 1000000))
+        ->capture_default_str();
+      cmd.add_option("--profile-moves", o.options.max_profile_moves,
+                     "times a named effect's fit moves to a side of its profile that fits better (0: never)")
+        ->check(CLI::Range(0, 10))
+        ->capture_default_str();
+      cmd.add_option("--threads", o.options.threads, "candidates fitted at once (0: all cores)");
+      cmd.add_option("--rtol", o.options.relative_tolerance, "CVODE relative tolerance")
+        ->check(CLI::Range(1e-12, 1e-2))
+        ->capture_default_str();
+      cmd.add_option("--start", o.options.start,
+                     "where each record starts: auto (the best over its first two cycles), rest, record "
+                     "(the state its first samples show), record-mean (as record, the high side at the "
+                     "outlet pressure's mean over the first cycle; auto tries it in no-flow runs), steady "
+                     "(static state under its first drive value) or periodic (a run-in of its first cycle)")
+        ->check(CLI::IsMember({"auto", "rest", "record", "record-mean", "steady", "periodic"}))
+        ->capture_default_str();
+      cmd.add_option("--lead-cycles", o.options.lead_cycles, "cycles of run-in before a periodic start")
+        ->check(CLI::Range(1.0, 1000.0))
+        ->capture_default_str();
+      cmd.add_option("--settling-cycles", o.options.settling_cycles,
+                     "cycles at each record's start left out of the residual (default: 0 from rest, else 1, and "
+                     "from the named fit on the named model's memory of its start, at least 1)")
+        ->check(CLI::Range(0.0, 100.0));
+      cmd.add_option("--harmonics", o.harmonics,
+                     "compare data and model within this many harmonics of the pumping frequency (0: every "
+                     "sample as measured); auto: 10, and in a loaded run only those at or below half the reed's "
+                     "natural frequency (where the valves flutter)")
+        ->check(auto_or_range(0, 1000, "harmonics"))
+        ->capture_default_str();
+    }
+
+    /// The baseline's second mode, the sensors, the records' outliers, the judgement's thresholds.
+    void add_judging_options(CLI::App &cmd, DiagnoseCommandOptions &o)
+    {
+      cmd.add_option("--reed-second-mode", o.reed_second_mode,
+                     "the reeds' second bending mode in the baseline: auto (the case's; if it gives none, a "
+                     "loaded run gets a uniform cantilever's at 6.267 x the first mode), case, or a frequency [Hz]")
+        ->capture_default_str();
+      cmd.add_flag("--ideal-sensors", o.ideal_sensors,
+                   "do not fit the sensors' lags (the case's [sensors]) to the final model: compare it as it is");
+      cmd.add_flag("!--keep-outliers", o.options.repair_outliers,
+                   "do not look for isolated spikes in the records (default: found, reported, replaced)");
+      cmd.add_option("--gain-range", o.options.gain_range, "nuisance force gain fitted in 1 +- this")
+        ->check(CLI::Range(0.0, 0.5))
+        ->capture_default_str();
+      cmd.add_option("--identifiability-sd", o.options.identifiability_sd,
+                     "a baseline parameter whose standard error (every compared sample counted as "
+                     "independent) exceeds this share of its range is held")
+        ->check(CLI::Range(0.001, 1.0))
+        ->capture_default_str();
+      cmd.add_option("--determined-sd", o.options.determined_relative_sd,
+                     "the named effect's parameter is reported as determined when moving it this share either "
+                     "way (the baseline refitted) fits worse by the naming's evidence, and its standard error is "
+                     "at most this share")
+        ->check(CLI::Range(0.001, 2.0))
+        ->capture_default_str();
+      cmd.add_option("--beyond-library", o.options.beyond_library_noise_units,
+                     "residual [noise units] above which the verdict says: model error beyond the library")
+        ->check(CLI::Range(1.0, 1000.0))
+        ->capture_default_str();
+    }
+
     void register_diagnose_command(CLI::App &app)
     {
-    auto o   = std::make_shared<DiagnoseCommandOptions>();
-    auto cmd = app.add_subcommand(
-      "diagnose", "compare measured runs with the model, name the missing effect, add it, refit");
-    add_case_and_out(*cmd, o->case_path, o->out_dir);
-    // the folder is not one of the settings a resumed run must share (its fits are kept there)
-    cmd->get_option("--out")->configurable(false);
-    cmd->add_option("--data", o->data, "measured runs (CSV: time_s, current_A or voltage_V, outlet_pressure_Pa, ...)")
-      ->required();
-    cmd->add_option("--scenario", o->scenario, "no-flow or loaded (all runs)")
-      ->check(CLI::IsMember({"no-flow", "loaded"}))
-      ->capture_default_str();
-    cmd->add_option("--frequency", o->frequency_Hz, "pumping frequency [Hz] (default: from each run's drive)");
-    cmd->add_option("--effects", o->options.effects, "candidate effects (default: all)");
-    cmd->add_flag("--second-effect", o->second, "after naming one effect, look for a second");
-    cmd->add_option("--training-fraction", o->options.training_fraction,
-                    "part of each run the fit sees; the rest is held out")->capture_default_str();
-    cmd->add_option("--compared-cycles", o->options.compared_cycles,
-                    "the candidates are fitted and compared on at most this many training cycles in all, "
-                    "the same number from each run; the named effect is then refitted on all (0: all)")
-      ->check(CLI::Range(0.0, 1e6))
-      ->capture_default_str();
-    cmd->add_option("--max-evaluations", o->options.max_evaluations, "optimiser evaluations per candidate")
-      ->check(CLI::Range(1, 1000000))
-      ->capture_default_str();
-    cmd->add_option("--profile-moves", o->options.max_profile_moves,
-                    "times a named effect's fit moves to a side of its profile that fits better (0: never)")
-      ->check(CLI::Range(0, 10))
-      ->capture_default_str();
-    cmd->add_option("--threads", o->options.threads, "candidates fitted at once (0: all cores)");
-    cmd->add_option("--rtol", o->options.relative_tolerance, "CVODE relative tolerance")
-      ->check(CLI::Range(1e-12, 1e-2))
-      ->capture_default_str();
-    cmd->add_option("--start", o->options.start,
-                    "where each record starts: auto (the best over its first two cycles), rest, record "
-                    "(the state its first samples show), record-mean (as record, the high side at the "
-                    "outlet pressure's mean over the first cycle; auto tries it in no-flow runs), steady "
-                    "(static state under its first drive value) or periodic (a run-in of its first cycle)")
-      ->check(CLI::IsMember({"auto", "rest", "record", "record-mean", "steady", "periodic"}))
-      ->capture_default_str();
-    cmd->add_option("--lead-cycles", o->options.lead_cycles, "cycles of run-in before a periodic start")
-      ->check(CLI::Range(1.0, 1000.0))
-      ->capture_default_str();
-    cmd->add_option("--settling-cycles", o->options.settling_cycles,
-                    "cycles at each record's start left out of the residual (default: 0 from rest, else 1, and "
-                    "from the named fit on the named model's memory of its start, at least 1)")
-      ->check(CLI::Range(0.0, 100.0));
-    cmd->add_option("--harmonics", o->harmonics,
-                    "compare data and model within this many harmonics of the pumping frequency (0: every "
-                    "sample as measured); auto: 10, and in a loaded run only those at or below half the reed's "
-                    "natural frequency (where the valves flutter)")
-      ->check(CLI::Validator(
-        [](std::string &text) -> std::string {
-          if (text == "auto")
-            return {};
-          char        *end = nullptr;
-          const double v   = std::strtod(text.c_str(), &end);
-          if (text.empty() || *end != '\0' || !(v >= 0 && v <= 1000))
-            return "'" + text + "' is neither 'auto' nor a number in [0, 1000]";
-          return {};
-        },
-        "auto|0..1000", "harmonics"))
-      ->capture_default_str();
-    cmd->add_option("--reed-second-mode", o->reed_second_mode,
-                    "the reeds' second bending mode in the baseline: auto (the case's; if it gives none, a "
-                    "loaded run gets a uniform cantilever's at 6.267 x the first mode), case, or a frequency [Hz]")
-      ->capture_default_str();
-    cmd->add_flag("--ideal-sensors", o->ideal_sensors,
-                  "do not fit the sensors' lags (the case's [sensors]) to the final model: compare it as it is");
-    cmd->add_flag("!--keep-outliers", o->options.repair_outliers,
-                  "do not look for isolated spikes in the records (default: found, reported, replaced)");
-    cmd->add_option("--gain-range", o->options.gain_range, "nuisance force gain fitted in 1 +- this")
-      ->check(CLI::Range(0.0, 0.5))
-      ->capture_default_str();
-    cmd->add_option("--identifiability-sd", o->options.identifiability_sd,
-                    "a baseline parameter whose standard error (every compared sample counted as "
-                    "independent) exceeds this share of its range is held")
-      ->check(CLI::Range(0.001, 1.0))
-      ->capture_default_str();
-    cmd->add_option("--determined-sd", o->options.determined_relative_sd,
-                    "the named effect's parameter is reported as determined when moving it this share either "
-                    "way (the baseline refitted) fits worse by the naming's evidence, and its standard error is "
-                    "at most this share")
-      ->check(CLI::Range(0.001, 2.0))
-      ->capture_default_str();
-    cmd->add_option("--beyond-library", o->options.beyond_library_noise_units,
-                    "residual [noise units] above which the verdict says: model error beyond the library")
-      ->check(CLI::Range(1.0, 1000.0))
-      ->capture_default_str();
+      auto o   = std::make_shared<DiagnoseCommandOptions>();
+      auto cmd = app.add_subcommand(
+        "diagnose", "compare measured runs with the model, name the missing effect, add it, refit");
+      add_case_and_out(*cmd, o->case_path, o->out_dir);
+      // the folder is not one of the settings a resumed run must share (its fits are kept there)
+      cmd->get_option("--out")->configurable(false);
+      cmd->add_option("--data", o->data, "measured runs (CSV: time_s, current_A or voltage_V, outlet_pressure_Pa, ...)")
+        ->required();
+      cmd->add_option("--scenario", o->scenario, "no-flow or loaded (all runs)")
+        ->check(CLI::IsMember({"no-flow", "loaded"}))
+        ->capture_default_str();
+      cmd->add_option("--frequency", o->frequency_Hz, "pumping frequency [Hz] (default: from each run's drive)");
+      cmd->add_option("--effects", o->options.effects, "candidate effects (default: all)");
+      cmd->add_flag("--second-effect", o->second, "after naming one effect, look for a second");
+      add_fit_options(*cmd, *o);
+      add_judging_options(*cmd, *o);
       cmd->callback([o, cmd] {
         o->settings = cmd->config_to_str(true, false);
         diagnose(*o);

@@ -53,6 +53,22 @@ namespace rectify::app
       ->check(CLI::Validator([](std::string &text) { return check_output_folder(text); }, "", "writable"));
   }
 
+  CLI::Validator auto_or_range(double lower, double upper, const std::string &name)
+  {
+    return CLI::Validator(
+      [=](std::string &text) -> std::string {
+        if (text == "auto")
+          return {};
+        char        *end = nullptr;
+        const double v   = std::strtod(text.c_str(), &end);
+        if (text.empty() || *end != '\0' || !(v >= lower && v <= upper))
+          return "'" + text + "' is neither 'auto' nor a number in [" + format_number(lower) + ", " +
+                 format_number(upper) + "]";
+        return {};
+      },
+      "auto|" + format_number(lower) + ".." + format_number(upper), name);
+  }
+
   void echo_settings(const std::string                                       &command,
                      const std::vector<std::pair<std::string, std::string>> &settings)
   {

@@ -20,6 +20,9 @@ namespace rectify::app
   /// read, before any work).
   void add_case_and_out(CLI::App &command, std::string &case_path, std::string &out_dir);
 
+  /// An option's check: "auto" or a number in [lower, upper].
+  CLI::Validator auto_or_range(double lower, double upper, const std::string &name);
+
   /// Echoes a command's settings at start-up, one "name value" line each, on stderr.
   void echo_settings(const std::string                                       &command,
                      const std::vector<std::pair<std::string, std::string>> &settings);

@@ -799,6 +799,15 @@ namespace rectify::diagnosis
   DiagnosisResult diagnose(const system::SystemParameters &base, const system::ValveMaps &map,
                            std::vector<RunCase> runs, const DiagnoseOptions &options)
   {
-    return Diagnosis(base, map, std::move(runs), options).run();
+    try
+      {
+        return Diagnosis(base, map, std::move(runs), options).run();
+      }
+    catch (...)
+      {
+        if (!options.checkpoint_dir.empty())
+          discard_if_nothing_kept(options.checkpoint_dir, options.checkpoint_dir_made);
+        throw;
+      }
   }
 } // namespace rectify::diagnosis

@@ -53,6 +53,8 @@
 namespace rectify::diagnosis
 {
   /// Calibrates the runs' noise (calibrate_noise) and runs the workflow.
+  /// One that fails leaves its checkpoint folder as it found it where no
+  /// fit was kept (DiagnoseOptions::checkpoint_dir_made).
   DiagnosisResult diagnose(const system::SystemParameters &base, const system::ValveMaps &map,
                            std::vector<RunCase> runs, const DiagnoseOptions &options);
 

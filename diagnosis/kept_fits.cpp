@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "common/io.h"
+#include "common/version.h"
 
 namespace rectify::diagnosis
 {
@@ -197,5 +198,18 @@ namespace rectify::diagnosis
     std::error_code ec;
     if (made_dir && std::filesystem::is_empty(dir, ec))
       std::filesystem::remove(dir, ec);
+  }
+
+  nlohmann::json checkpoint_fingerprint(const std::string &settings, const std::filesystem::path &case_path,
+                                        const std::vector<std::string> &data)
+  {
+    nlohmann::json data_hashes = nlohmann::json::array();
+    for (const auto &d : data)
+      data_hashes.push_back(file_hash(d));
+    return {{"revision", source_revision()},
+            {"version", RECTIFY_VERSION},
+            {"settings", settings},
+            {"case", file_hash(case_path)},
+            {"data", data_hashes}};
   }
 } // namespace rectify::diagnosis

@@ -16,6 +16,7 @@
 #include <optional>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -33,6 +34,11 @@ namespace rectify::diagnosis
   /// the folder too where the diagnosis made it and left it empty (a
   /// failure before any fit leaves nothing behind).
   void        discard_if_nothing_kept(const std::filesystem::path &dir, bool made_dir);
+  /// What makes a diagnosis's fits the same (DiagnoseOptions::checkpoint_fingerprint):
+  /// the build, the command's settings (every option but the folder), the
+  /// case file's and each record's content.
+  nlohmann::json checkpoint_fingerprint(const std::string &settings, const std::filesystem::path &case_path,
+                                        const std::vector<std::string> &data);
 
   class FitStore
   {

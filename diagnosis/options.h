@@ -102,5 +102,8 @@ namespace rectify::diagnosis
     /// `none`, fitted again first, differs from the kept one in any bit.
     std::filesystem::path checkpoint_dir;
     nlohmann::json        checkpoint_fingerprint;
+    /// checkpoint_dir was made for this diagnosis: one that fails before
+    /// any fit is kept removes it again (discard_if_nothing_kept).
+    bool                  checkpoint_dir_made = false;
   };
 } // namespace rectify::diagnosis

@@ -9,6 +9,7 @@
 #include "common/case_edit.h"
 #include "common/io.h"
 #include "common/plot.h"
+#include "common/version.h"
 #include "diagnosis/fit.h"
 
 namespace rectify::diagnosis
@@ -145,7 +146,14 @@ namespace rectify::diagnosis
       std::string write()
       {
         summary = to_json(result, runs);
-        summary.update(in_.summary_extra);
+        summary.update({{"command", "diagnose"},
+                        {"rectify_version", RECTIFY_VERSION},
+                        {"build", build_info()},
+                        {"case", in_.case_path},
+                        {"scenario", in_.scenario},
+                        {"baseline_second_mode",
+                         {{"frequency_Hz", second_mode.frequency_Hz}, {"reason", second_mode.reason}}},
+                        {"data", in_.data}});
         write_new_case();
         write_overlays();
         summary["files"] = files;

@@ -27,8 +27,6 @@ namespace rectify::diagnosis
     double                   file_second_mode_Hz = 0; ///< the case file's own
     system::SystemParameters case_parameters;          ///< as diagnosed (second mode set)
     DiagnoseOptions          options;
-    /// summary.json's own keys beside to_json's (command, version, build, ...)
-    nlohmann::json           summary_extra = nlohmann::json::object();
     std::chrono::steady_clock::time_point started = std::chrono::steady_clock::now();
     /// Reads a case file as the command does (every stage's keys checked):
     /// the new case file is read back with it
