@@ -3,10 +3,12 @@
 # with each effect on (a restructuring of system/ must not move a digit):
 # `rectify synth` without noise for every effect of the library in both
 # scenarios (the coil's with a voltage drive), and `rectify simulate` on a
-# case with six effects on at once; every output file compared byte for
+# case with seven effects on at once; every output file compared byte for
 # byte, except the lines that name the build or the time. (Known: since the
 # seal became a component, a summary's high_side_capacitance_m3_per_Pa
-# includes the seal's compliance.)
+# includes the seal's compliance; since the outlet line became one, a
+# summary's model constants hold the line's node capacitance and added
+# length only with the line on.)
 #   bash bench/model_bits.sh OLD/rectify NEW/rectify [OUT]
 set -euo pipefail
 old=$1 new=$2 out=${3:-runs/model-bits}
@@ -20,6 +22,8 @@ sed -e 's/^leak_resistance_Pa_s_per_m3 = 0.0/leak_resistance_Pa_s_per_m3 = 3e12/
     -e 's/^seal_compliance_m3_per_Pa = 0.0/seal_compliance_m3_per_Pa = 2e-13/' \
     -e 's/^coulomb_friction_N = 0.0/coulomb_friction_N = 5.0/' \
     -e 's/^free_air_fraction = 0.0 /free_air_fraction = 2e-3 /' \
+    -e 's/^outlet_inertance_Pa_s2_per_m3 = 0.0 /outlet_inertance_Pa_s2_per_m3 = 3e6 /' \
+    -e 's/^outlet_line_segments = 1 /outlet_line_segments = 3 /' \
     cases/reference.toml > "$out/combined.toml"
 cp cases/thesis-resistance.csv "$out/"
 compare() { # label, then the two folders

@@ -366,9 +366,9 @@ namespace rectify::diagnosis
     const double p_out = given(p_at) ? p_at - c.p_bias : 0.0;
     y[state::chamber_p] = p_ch;
     y[state::high_p]    = p_out;
-    if (state::line_node_p < n && c.L_line > 0)
-      for (std::size_t k = 0; k < c.n_line_segments; ++k)
-        y[state::line_segment_node(k)] = p_out;
+    for (const auto &v : model.volumes())
+      if (v.high_side && v.state < n)
+        y[v.state] = p_out;
     // the coil current: with a voltage drive and the coil's inductance, the
     // periodic response to the record's first cycle (the record shows the
     // pump in operation, where the current lags the voltage); else the
@@ -403,7 +403,7 @@ namespace rectify::diagnosis
     // section's node) hold came from the accumulator and the low side (the
     // cylinder's stroke moves oil between its sides)
     const double held = model.stored_volume(0, p_ch) - c.A_pi * x_p + model.stored_volume(1, p_out) +
-                        model.line_stored_volume(y);
+                        model.component_stored_volume(y);
     const double p_acc = -held / (c.C_acc + c.C_l);
     y[state::accumulator_p] = p_acc;
     y[state::low_p]         = p_acc;

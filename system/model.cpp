@@ -1,6 +1,5 @@
 #include "system/model.h"
 
-#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 
@@ -73,52 +72,18 @@ namespace rectify::system
     V_ch   = V_c;
     V_h    = A_po * p.cylinder.high_side_fraction * p.cylinder.wetted_length_m;
     V_l    = A_po * (1.0 - p.cylinder.high_side_fraction) * p.cylinder.wetted_length_m;
-    L_line         = p.lines.outlet_inertance_Pa_s2_per_m3;
-    // With an inertial line, the oil between the valve and the line needs a
-    // compliance of its own, else a closing valve stops the line's flow
-    // through no volume at all (a spike of GPa). It is taken from the high
-    // side's (a tenth of it), so the total stays the thesis's and L -> 0
-    // (R3 joining node and high side) is the thesis model again.
-    C_node = L_line > 0 ? 0.1 * C_h : 0.0;
-    C_h -= C_node;
-    V_node = L_line > 0 ? 0.1 * V_h : 0.0; // its oil, for the free air it holds
-    V_h -= V_node;
-    // The inertance is that of a line of the case's bore, added between the
-    // valve and the high side: a line that has mass also has friction and
-    // oil. Laminar and quasi-steady (Womersley number r sqrt(w rho / mu)
-    // about 0.3 at 100 Hz for this oil), so L = 4/3 rho l / A and the line
-    // is l = 3 L A / (4 rho) long; its Poiseuille resistance joins R3, its
-    // oil's compliance A l / beta is split between its two ends (a lumped
-    // pi section, or [lines] outlet_line_segments of them in a chain; one is
-    // valid while l is well below a quarter wavelength at the
-    // harmonics that matter, about 0.4 m at 500 Hz).
-    if (L_line > 0)
-      {
-        const double d = p.lines.diameter_m, A = M_PI * d * d / 4.0;
-        const double l = 3.0 * L_line * A / (4.0 * p.fluid.density_kg_per_m3);
-        added_line_length = l;
-        R3 += 128.0 * p.fluid.viscosity_Pa_s * l / (M_PI * d * d * d * d);
-        // n pi sections: each segment's oil split between its two ends
-        n_line_segments = static_cast<std::size_t>(p.lines.outlet_line_segments);
-        const double n  = static_cast<double>(n_line_segments);
-        C_node += 0.5 * A * l / beta_eff / n;
-        C_h += 0.5 * A * l / beta_eff / n;
-        V_node += 0.5 * A * l / n;
-        V_h += 0.5 * A * l / n;
-        C_line_node = A * l / beta_eff / n;
-        V_line_node = A * l / n;
-      }
     R_coil          = p.transducer.coil_resistance_ohm;
     const double w2 = 2.0 * M_PI * p.reed.second_mode_frequency_Hz;
     k_r2 = reed.mass * w2 * w2;
     b_r2 = 2.0 * p.reed.damping_ratio * std::sqrt(k_r2 * reed.mass);
-    for (const auto &component : make_components(p, scenario))
+    components = make_components(p, scenario, *this);
+    for (const auto &component : components)
       component->adjust(*this);
   }
 
   nlohmann::json ModelConstants::to_json() const
   {
-    return {{"force_per_ampere_N_per_A", force_per_ampere},
+    nlohmann::json j = {{"force_per_ampere_N_per_A", force_per_ampere},
             {"rod_stiffness_N_per_m", k_td},
             {"transducer_stiffness_N_per_m", k_eff},
             {"transducer_damping_N_s_per_m", b_eff},
@@ -132,11 +97,12 @@ namespace rectify::system
             {"chamber_capacitance_m3_per_Pa", C_ch},
             {"accumulator_capacitance_m3_per_Pa", C_acc},
             {"high_side_capacitance_m3_per_Pa", C_h},
-            {"outlet_line_node_capacitance_m3_per_Pa", C_node},
             {"low_side_capacitance_m3_per_Pa", C_l},
             {"line_resistance_Pa_s_per_m3", R3},
-            {"added_outlet_line_length_m", added_line_length},
             {"bias_pressure_Pa", p_bias}};
+    for (const auto &c : components)
+      c->constants_json(j);
+    return j;
   }
 
   Model::Model(const SystemParameters &parameters, std::array<maps::MapSet, 2> valve_maps, ValveModel valves,
@@ -147,9 +113,22 @@ namespace rectify::system
     , scenario_(scenario)
     , drive_(std::move(drive))
   {
-    for (auto &component : make_components(parameters, scenario))
+    volumes_ = {{state::chamber_p, c_.C_ch, c_.V_ch, "chamber", false},
+                {state::high_p, c_.C_h, c_.V_h, "high side", true},
+                {state::low_p, c_.C_l, c_.V_l, "low side", false}};
+    for (const auto &component : c_.components)
       if (component->acts(drive_))
-        components_.push_back(std::move(component));
+        {
+          components_.push_back(component);
+          extra_states_ += component->extra_states();
+          for (auto &v : component->volumes())
+            volumes_.push_back(std::move(v));
+          if (const auto node = component->outlet_node(); node && !outlet_element_)
+            {
+              outlet_element_ = component.get();
+              outlet_node_    = *node;
+            }
+        }
     stop_lift_ = parameters.reed.stop == "on" && valves_ == ValveModel::dynamic ?
                    parameters.reed.stop_lift_m :
                    std::numeric_limits<double>::infinity();
@@ -167,10 +146,8 @@ namespace rectify::system
     if (parameters.fluid.cavitates())
       {
         p_cavitation_ = parameters.fluid.cavitation_pressure_Pa - c_.p_bias;
-        cavity_nodes_ = {state::chamber_p, state::high_p, state::low_p};
-        if (c_.L_line > 0)
-          for (std::size_t k = 0; k < c_.n_line_segments; ++k)
-            cavity_nodes_.push_back(state::line_segment_node(k));
+        for (const auto &v : volumes_)
+          cavity_nodes_.push_back(v.state);
       }
     cavitating_.assign(cavity_nodes_.size(), 0);
     loading_ = parameters.reed.fluid_loading == "map" && valves_ == ValveModel::dynamic;
@@ -306,17 +283,7 @@ namespace rectify::system
 
   double Model::node_compliance(std::size_t k, double p) const
   {
-    const std::size_t i   = cavity_nodes_[k];
-    const auto        air = [&](double V) { return V * gas_compliance(p); };
-    if (i == state::chamber_p)
-      return c_.C_ch + air(c_.V_ch);
-    if (i == state::high_p)
-      return c_.C_h + air(c_.V_h);
-    if (i == state::low_p)
-      return c_.C_l + air(c_.V_l);
-    if (i == state::line_node_p)
-      return c_.C_node + air(c_.V_node);
-    return c_.C_line_node + air(c_.V_line_node);
+    return volumes_[k].compliance + volumes_[k].oil_volume * gas_compliance(p);
   }
 
   double Model::cavity_volume(std::size_t k, std::span<const double> y) const
@@ -415,7 +382,16 @@ namespace rectify::system
 
   bool Model::needs_difference_jacobian() const
   {
-    return !components_.empty() || c_.L_line > 0 || c_.k_r2 > 0 || loading_;
+    return !components_.empty() || c_.k_r2 > 0 || loading_;
+  }
+
+  int Model::max_bdf_order() const
+  {
+    int order = 0;
+    for (const auto &c : components_)
+      if (const int k = c->max_bdf_order(); k > 0 && (order == 0 || k < order))
+        order = k;
+    return order;
   }
 
   double Model::opening(std::size_t v, std::span<const double> y) const
@@ -436,63 +412,24 @@ namespace rectify::system
     return drive_.value(t) / c_.R_coil;
   }
 
-  double ModelConstants::outlet_line_ringing_Hz() const
+  double Model::component_stored_volume(std::span<const double> y) const
   {
-    if (!(L_line > 0))
-      return 0.0;
-    // K p = omega^2 C p on the n + 1 nodes (the last the high side), K the
-    // chain's stiffness (1 / (L / n) per segment); symmetric as
-    // C^-1/2 K C^-1/2, its lowest eigenvalue 0 (all nodes at one pressure).
-    const std::size_t n = n_line_segments;
-    Eigen::VectorXd   C(n + 1);
-    for (std::size_t k = 0; k <= n; ++k)
-      C(static_cast<Eigen::Index>(k)) = k == 0 ? C_node : k == n ? C_h : C_line_node;
-    Eigen::MatrixXd S = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(n + 1), static_cast<Eigen::Index>(n + 1));
-    const double    g = static_cast<double>(n) / L_line;
-    for (Eigen::Index k = 0; k < static_cast<Eigen::Index>(n); ++k)
-      {
-        const double a = 1.0 / std::sqrt(C(k)), b = 1.0 / std::sqrt(C(k + 1));
-        S(k, k) += g * a * a;
-        S(k + 1, k + 1) += g * b * b;
-        S(k, k + 1) -= g * a * b;
-        S(k + 1, k) -= g * a * b;
-      }
-    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(S, Eigen::EigenvaluesOnly);
-    return std::sqrt(std::max(eig.eigenvalues()(1), 0.0)) / (2.0 * M_PI);
-  }
-
-  double Model::line_stored_volume(std::span<const double> y) const
-  {
-    if (c_.L_line == 0.0 || y.size() <= state::line_node_p)
-      return 0.0;
-    double v = stored_volume(3, y[state::line_node_p]);
-    for (std::size_t k = 1; k < c_.n_line_segments; ++k)
-      {
-        const double p      = y[state::line_segment_node(k)];
-        const auto   liquid = [&](double q) {
-          return c_.C_line_node * q + c_.V_line_node * gas_volume_change(q);
-        };
-        v += cavity_nodes_.empty() || !(p < p_cavitation_) ?
-               liquid(p) :
-               liquid(p_cavitation_) + node_compliance(3 + k, p_cavitation_) * (p - p_cavitation_);
-      }
+    double v = 0.0;
+    for (std::size_t k = 3; k < volumes_.size(); ++k)
+      if (volumes_[k].state < y.size())
+        v += stored_volume(k, y[volumes_[k].state]);
     return v;
   }
 
-  double Model::stored_volume(int node, double p) const
+  double Model::stored_volume(std::size_t node, double p) const
   {
     const auto liquid = [&](double q) {
-      if (node == 3) // the node between the outlet valve and an inertial line
-        return c_.C_node * q + c_.V_node * gas_volume_change(q);
-      const double V = node == 0 ? c_.V_ch : node == 1 ? c_.V_h : c_.V_l;
-      const double C = node == 0 ? c_.C_ch : node == 1 ? c_.C_h : c_.C_l;
-      return C * q + V * gas_volume_change(q);
+      return volumes_[node].compliance * q + volumes_[node].oil_volume * gas_volume_change(q);
     };
     if (cavity_nodes_.empty() || !(p < p_cavitation_))
       return liquid(p);
     // cavitating: the liquid holds what it held at p_c, less the cavity
-    const std::size_t k = node == 3 ? 3 : static_cast<std::size_t>(node);
-    return liquid(p_cavitation_) + node_compliance(k, p_cavitation_) * (p - p_cavitation_);
+    return liquid(p_cavitation_) + node_compliance(node, p_cavitation_) * (p - p_cavitation_);
   }
 
   namespace
@@ -619,11 +556,9 @@ namespace rectify::system
     s[state::outlet_reed2_v] = s[state::inlet_reed2_v] = v;
     s[state::line_node_p]    = p;
     s.resize(n_states());
-    for (std::size_t k = 1; k < c_.n_line_segments; ++k) // n > 1: the line is on, so are its states
-      {
-        s[state::line_segment_flow(k)] = c_.A_pi * v;
-        s[state::line_segment_node(k)] = p;
-      }
+    if (n_states() > state::thesis_count)
+      for (const auto &c : components_)
+        c->typical_sizes(s, c_.A_pi * v, p);
     return s;
   }
 
@@ -678,10 +613,10 @@ namespace rectify::system
       u_outlet     = b.u;
       return b.q;
     };
-    if (c_.L_line > 0) // valve into the node, line out of it
+    if (outlet_element_) // valve into its node, the element out of it
       {
-        f.q_outlet = outlet_branch(0.0, p_ch - y[state::line_node_p]);
-        f.q_line   = y[state::line_segment_flow(c_.n_line_segments - 1)]; // into the high side
+        f.q_outlet = outlet_branch(0.0, p_ch - y[outlet_node_]);
+        f.q_line   = outlet_element_->high_side_inflow(y); // into the high side
       }
     else
       f.q_outlet = f.q_line = outlet_branch(c_.R3, p_ch - p_h);
@@ -841,30 +776,10 @@ namespace rectify::system
 
     if (ydot.size() == thesis_count)
       return;
-    // Outlet-line inertance: L q_line' = p_node - p_h - R3 q_line, the node
-    // between valve and line filled by the valve: C_node p_node' = q_outlet - q_line.
-    // With n segments: segment k (L / n, R3 / n) from node k to node k + 1
-    // (node n: the high side), node k filled by segment k - 1 (node 0: by the valve).
-    ydot[line_flow] = ydot[line_node_p] = 0.0;
-    if (c_.L_line > 0)
-      {
-        const std::size_t n  = c_.n_line_segments;
-        const double      nn = static_cast<double>(n);
-        for (std::size_t k = 0; k < n; ++k)
-          {
-            const std::size_t iq = line_segment_flow(k), ip = line_segment_node(k);
-            const double p_next  = k + 1 < n ? y[line_segment_node(k + 1)] : y[high_p];
-            ydot[iq]             = (y[ip] - p_next - c_.R3 / nn * y[iq]) / (c_.L_line / nn);
-            const double q_in    = k == 0 ? f.q_outlet : y[line_segment_flow(k - 1)];
-            const double C       = k == 0 ? c_.C_node + c_.V_node * gas_compliance(y[ip]) :
-                                            c_.C_line_node +
-                                        c_.V_line_node * gas_compliance(y[ip]);
-            ydot[ip] = (q_in - y[iq]) / C;
-          }
-      }
+    ydot[line_flow] = ydot[line_node_p] = 0.0; // the outlet line's, where it is off
     ydot[coil_current] = 0.0;
     for (const auto &c : components_)
-      c->own_rhs(t, y, drive_, ydot);
+      c->own_rhs(t, y, *this, f, ydot);
   }
 
   std::vector<std::vector<std::size_t>> Model::rhs_reads() const
@@ -880,8 +795,9 @@ namespace rectify::system
       flow.insert(flow.end(), {outlet_reed2_x, inlet_reed2_x});
     if (loading_)
       flow.insert(flow.end(), {outlet_reed_v, inlet_reed_v});
-    if (c_.L_line > 0)
-      flow.insert(flow.end(), {line_node_p, line_segment_flow(c_.n_line_segments - 1)});
+    for (const auto &c : components_)
+      for (std::size_t i : c->flow_reads())
+        flow.push_back(i);
     const auto with_flows = [&](std::initializer_list<std::size_t> own) {
       std::vector<std::size_t> v = flow;
       v.insert(v.end(), own);
@@ -914,15 +830,8 @@ namespace rectify::system
     r[outlet_volume] = r[inlet_volume] = r[outlet_pressure_integral] = flow;
     if (n == thesis_count)
       return r;
-    if (c_.L_line > 0)
-      for (std::size_t k = 0; k < c_.n_line_segments; ++k)
-        {
-          const std::size_t iq = line_segment_flow(k), ip = line_segment_node(k);
-          r[iq] = {ip, iq, k + 1 < c_.n_line_segments ? line_segment_node(k + 1) : std::size_t(high_p)};
-          r[ip] = k == 0 ? with_flows({ip, iq}) : std::vector<std::size_t>{line_segment_flow(k - 1), iq, ip};
-        }
     for (const auto &c : components_)
-      c->own_reads(r);
+      c->own_reads(r, flow);
     return r;
   }
 

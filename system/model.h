@@ -125,27 +125,15 @@ namespace rectify::system
     double R_ideal_open;
     double p_bias; ///< absolute pressure the gauge states are measured from
     maps::OutOfRange out_of_range;
-    // The effects the model holds in its core (0 = off); the others are
-    // components (system/component.h), which adjust() these constants.
     double V_ch, V_h, V_l;         ///< oil volumes of the chamber, high and low sides
-    double L_line;                 ///< outlet-line inertance
-    double C_node;                 ///< oil between the outlet valve and the line (with L_line)
-    double V_node;                 ///< its volume (a tenth of the high side's, taken from V_h)
-    double added_line_length = 0;  ///< the line whose inertance L_line is (its R and C are in R3, C_node, C_h)
-    std::size_t n_line_segments = 1; ///< the inertial line's pi sections (L_line / n and R3 / n each)
-    double C_line_node = 0, V_line_node = 0; ///< each node between two segments: a segment's oil
     double R_coil;                 ///< the coil's resistance: a voltage drive's current V / R
-    double k_r2, b_r2;             ///< second reed mode (k_r2 = 0: off)
+    double k_r2, b_r2;             ///< second reed mode (k_r2 = 0: off), held in the model's core
+    /// The components the case switches on (system/component.h), made
+    /// from the thesis's constants; their adjust()s are applied.
+    Components components;
 
-    /// The thesis's constants and the core effects', then each component's adjust().
+    /// The thesis's constants, then each component's adjust().
     ModelConstants(const SystemParameters &p, Scenario scenario);
-    /// The inertial outlet line's lowest frequency with both valves shut
-    /// [Hz]: the chain of its n segments (L / n each) between the node
-    /// after the valve, the nodes between segments and the high side (with
-    /// the seal), lossless, without free air; 1 / (2 pi sqrt(L C)) with C
-    /// the node's and the high side's compliances in series for one
-    /// segment. 0 without the line.
-    double outlet_line_ringing_Hz() const;
     nlohmann::json to_json() const;
   };
 
@@ -157,7 +145,7 @@ namespace rectify::system
     double p_outlet, p_inlet;      ///< p_o, p_i
     double q_outlet;               ///< out of the chamber through the outlet valve
     double q_line;                 ///< into the high side through the outlet line (= q_outlet
-                                   ///< without line inertance)
+                                   ///< without an outlet element, Component::outlet_node)
     double q_inlet;                ///< junction -> chamber, through the inlet valve
     double q_accumulator;          ///< junction -> accumulator
     double q_low;                  ///< junction -> low side
@@ -193,7 +181,7 @@ namespace rectify::system
 
     std::size_t n_states() const override
     {
-      return needs_difference_jacobian() ? state::count + 2 * (c_.n_line_segments - 1) : state::thesis_count;
+      return needs_difference_jacobian() ? state::count + extra_states_ : state::thesis_count;
     }
     void        rhs(double t, std::span<const double> y, std::span<double> ydot) const override;
     void        jacobian(double t, std::span<const double> y, DenseView J) const override;
@@ -240,24 +228,28 @@ namespace rectify::system
     double              displaced_flow(std::size_t v, std::span<const double> y) const;
     /// Coil current: the drive itself, V/R, or the coil state (coil dynamics).
     double              current_A(double t, std::span<const double> y) const;
-    /// Oil (and free air) stored in the inertial outlet line's nodes at state
-    /// y, relative to the bias state (0 without the line).
-    double              line_stored_volume(std::span<const double> y) const;
-    /// Oil (and free air) volume stored at gauge pressure p on node 0 chamber,
-    /// 1 high side, 2 low side, 3 the node between outlet valve and an inertial
-    /// line, relative to the bias state: the integral of
-    /// the node's compliance (for the volume balances).
-    double              stored_volume(int node, double p) const;
+    /// Oil (and free air) stored in the components' volumes (the outlet
+    /// line's nodes) at state y, relative to the bias state (0 without).
+    double              component_stored_volume(std::span<const double> y) const;
+    /// Oil (and free air) volume stored at gauge pressure p in volume
+    /// `node` (volumes(): 0 chamber, 1 high side, 2 low side, then the
+    /// components', 3 the node after the outlet valve with an outlet line),
+    /// relative to the bias state: the integral of its compliance (for the
+    /// volume balances).
+    double              stored_volume(std::size_t node, double p) const;
+    /// The model's oil volumes: chamber, high side, low side, then the components'.
+    const std::vector<OilVolume> &volumes() const { return volumes_; }
+    /// The components' free gas per unit oil volume at gauge pressure p:
+    /// its compliance and its volume lost from the bias state (0 without).
+    double gas_compliance(double p) const;
+    double gas_volume_change(double p) const;
     /// True if an optional effect is on (a component or a core effect): the
     /// analytic Jacobian covers only the thesis model, so CVODE's difference
     /// quotients are used instead.
     bool                needs_difference_jacobian() const;
-    /// The highest BDF order the integrator should use (0: no limit). 2 with
-    /// an outlet line of several sections: a short line's sections ring
-    /// lightly damped at 10^5-10^7 Hz, where BDF orders 3-5 are unstable and
-    /// CVODE falls to tiny steps (857 k steps for a 150 Hz record at
-    /// L = 1e4, 62 k at order 2; a long line: 36 k vs 64 k).
-    int                 max_bdf_order() const { return c_.L_line > 0 && c_.n_line_segments > 1 ? 2 : 0; }
+    /// The highest BDF order the integrator should use (0: no limit): the
+    /// lowest its components ask for (Component::max_bdf_order).
+    int                 max_bdf_order() const;
     /// The seat's reaction on a seated two-mode reed that keeps its tip at
     /// the seat (force: the opening force; x, v: the modes' tip coordinates).
     double              seat_reaction(double force, double x1, double v1, double x2, double v2) const;
@@ -341,11 +333,7 @@ namespace rectify::system
     /// without a copy where nothing is.
     template <typename F>
     void with_physical(std::span<const double> y, const F &f) const;
-    /// The components' free gas per unit oil volume at gauge pressure p:
-    /// its compliance and its volume lost from the bias state (0 without).
-    double gas_compliance(double p) const;
-    double gas_volume_change(double p) const;
-    /// The compliance of volume node k (a cavity_nodes_ index) at gauge pressure p.
+    /// The compliance of volume k (volumes(); cavity k where they cavitate) at gauge pressure p.
     double node_compliance(std::size_t k, double p) const;
     /// A seat or stop root of valve v with one mode (x, v: its tip).
     void contact_event(std::size_t v, double t, std::span<double> y, bool stop_root);
@@ -363,6 +351,11 @@ namespace rectify::system
 
     ModelConstants        c_;
     Components            components_; ///< those that act with this drive
+    std::size_t           extra_states_ = 0; ///< theirs beyond state::count
+    std::vector<OilVolume> volumes_;
+    /// The component the outlet valve discharges into (the outlet line) and its node's state.
+    const Component      *outlet_element_ = nullptr;
+    std::size_t           outlet_node_    = state::high_p;
     StateLimits           limits_;
     std::array<maps::MapSet, 2> maps_;
     ValveModel            valves_;

@@ -456,12 +456,12 @@ namespace rectify::system
       const auto   y       = integrator_->state();
       const auto  &y0      = y0_;
       const auto   dy      = [&](std::size_t i) { return y[i] - y0[i]; };
-      const auto   dstored = [&](int node, std::size_t i) {
+      const auto   dstored = [&](std::size_t node, std::size_t i) {
         return model_.stored_volume(node, y[i]) - model_.stored_volume(node, y0[i]);
       };
       const double scale = std::max({std::abs(dy(outlet_volume)), std::abs(dy(inlet_volume)),
                                      c_.A_pi * std::abs(y[piston_x] - y0[piston_x]), c_.A_pi * 1e-9});
-      const double node_volume = model_.line_stored_volume(y) - model_.line_stored_volume(y0);
+      const double node_volume = model_.component_stored_volume(y) - model_.component_stored_volume(y0);
       const double e_out = dy(outlet_volume) - (dstored(1, high_p) + node_volume + c_.A_po * dy(actuator_x));
       const double e_in =
         dy(inlet_volume) - (-c_.C_acc * dy(accumulator_p) - dstored(2, low_p) + c_.A_po * dy(actuator_x));

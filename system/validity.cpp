@@ -44,10 +44,8 @@ namespace rectify::system
                                  {"high side", state::high_p, std::string::npos},
                                  {"low side", state::low_p, std::string::npos},
                                  {"accumulator", state::accumulator_p, std::string::npos}};
-      const auto &c = model.constants();
-      if (c.L_line > 0)
-        for (std::size_t k = 0; k < c.n_line_segments; ++k)
-          v.push_back({"outlet line node " + std::to_string(k), state::line_segment_node(k), std::string::npos});
+      for (std::size_t k = 3; k < model.volumes().size(); ++k) // the components'
+        v.push_back({model.volumes()[k].name, model.volumes()[k].state, std::string::npos});
       const auto &nodes = model.cavity_nodes();
       for (auto &vs : v)
         for (std::size_t k = 0; k < nodes.size(); ++k)

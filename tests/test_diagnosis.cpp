@@ -149,6 +149,7 @@ TEST(MeasuredRun, BadDataNamesFileRowAndColumn)
 #include "diagnosis/effect.h"
 #include "diagnosis/observation.h"
 #include "diagnosis/residuals.h"
+#include "system/components/outlet_line.h"
 #include "system/model.h"
 #include "system/simulation.h"
 
@@ -327,9 +328,9 @@ TEST(Diagnosis, EffectLibraryNamesBoundsAndKeys)
   ASSERT_EQ(effect_library().size(), expected.size());
   const auto base = system::SystemParameters::from_case(CaseFile::load(reference_case_path()));
   const auto map  = system::load_valve_maps(base);
-  const std::set<std::string> components{"entrained_air", "entrained_air_constant_modulus", "outlet_compliance",
-                                         "valve_leakage", "valve_leakage_turbulent",        "orifice_flow",
-                                         "coil_dynamics", "piston_friction"};
+  const std::set<std::string> components{"entrained_air",  "entrained_air_constant_modulus", "outlet_compliance",
+                                         "valve_leakage",  "valve_leakage_turbulent",        "orifice_flow",
+                                         "line_inertance", "coil_dynamics",                  "piston_friction"};
   for (std::size_t i = 0; i < expected.size(); ++i)
     {
       const auto &e = effect_library()[i];
@@ -452,7 +453,8 @@ TEST(Diagnosis, LineInertanceIsAHoseInTwelveSectionsWhateverTheCaseGivesItsPassa
   line->apply(std::vector<double>{3e7}, p);
   EXPECT_EQ(p.lines.outlet_inertance_Pa_s2_per_m3, 3e7);
   EXPECT_EQ(p.lines.outlet_line_segments, 12);
-  EXPECT_EQ(system::ModelConstants(p, system::Scenario::no_flow).n_line_segments, 12u);
+  ASSERT_NE(system::outlet_line(system::ModelConstants(p, system::Scenario::no_flow)), nullptr);
+  EXPECT_EQ(system::outlet_line(system::ModelConstants(p, system::Scenario::no_flow))->segments(), 12u);
   ASSERT_EQ(line->fixed_keys().size(), 1u);
   EXPECT_EQ(line->fixed_keys()[0].table, "lines");
   EXPECT_EQ(line->fixed_keys()[0].key, "outlet_line_segments");

@@ -10,6 +10,7 @@
 #include "common/case_file.h"
 #include "model_helpers.h"
 #include "system/components/free_air.h"
+#include "system/components/outlet_line.h"
 #include "system/components/piston_friction.h"
 #include "system/components/valve_leakage_turbulent.h"
 #include "system/integrator.h"
@@ -597,14 +598,18 @@ TEST(Effects, ADistributedOutletLineRingsAtItsTransmissionLineFrequency)
     p.lines.outlet_line_segments          = n;
     Model model(p, reference_map(p), ValveModel::dynamic, Scenario::no_flow, Drive::sine(100, 0, 0));
     const auto  &c      = model.constants();
-    const double C_line = (c.n_line_segments > 1 ? c.C_line_node * static_cast<double>(n) :
-                                                   2 * (c.C_node - 0.1 * make(reference(), Scenario::no_flow, 1)
-                                                                           .constants()
-                                                                           .C_h));
+    EXPECT_NE(outlet_line(c), nullptr);
+    if (!outlet_line(c))
+      return 0.0;
+    const auto  &line   = *outlet_line(c);
+    const double C_line = (line.segments() > 1 ? line.between_compliance() * static_cast<double>(n) :
+                                                 2 * (line.node_compliance() - 0.1 * make(reference(), Scenario::no_flow, 1)
+                                                                                       .constants()
+                                                                                       .C_h));
     const double C_h0   = make(reference(), Scenario::no_flow, 1).constants().C_h;
     const double a = 0.1 * C_h0 / C_line, b = 0.9 * C_h0 / C_line;
     f_exact        = lowest_root(a, b) / (2 * std::numbers::pi * std::sqrt(L * C_line));
-    f_chain        = c.outlet_line_ringing_Hz(); // the chain's own lowest mode (what the diagnosis starts from)
+    f_chain        = outlet_line_ringing_Hz(c); // the chain's own lowest mode (what the diagnosis starts from)
     // the line at 1 MPa, its fundamental's shape (cos(pi s / l)) on top: the outlet valve stays shut
     std::vector<double> y = model.initial_state();
     y[state::high_p]      = 1e6 - 1e5;
@@ -612,8 +617,8 @@ TEST(Effects, ADistributedOutletLineRingsAtItsTransmissionLineFrequency)
       y[state::line_segment_node(static_cast<std::size_t>(k))] =
         1e6 + 1e5 * std::cos(std::numbers::pi * static_cast<double>(k) / static_cast<double>(n));
     // the level it rings about: the oil the line and the high side hold, conserved
-    double stored = model.line_stored_volume(y) + c.C_h * y[state::high_p];
-    double C_sum  = c.C_node + c.C_h + c.C_line_node * static_cast<double>(n - 1);
+    double stored = model.component_stored_volume(y) + c.C_h * y[state::high_p];
+    double C_sum  = line.node_compliance() + c.C_h + line.between_compliance() * static_cast<double>(n - 1);
     const double p_mean = stored / C_sum;
     Integrator   integrator(model, 0.0, y, test_support::tight_integration(model, 1e-10, 1e-12));
     const double dt = 2e-6;
@@ -720,7 +725,10 @@ TEST(Effects, InertialLineFeedsTheHighSideThroughItsOwnNode)
   p.lines.outlet_inertance_Pa_s2_per_m3 = 1.12e8;
   p.lines.outlet_line_segments          = 1; // one lumped section (the default, as for a short passage)
   Model m                               = make(p, Scenario::no_flow, 150);
-  EXPECT_EQ(m.constants().n_line_segments, 1u);
+  ASSERT_NE(outlet_line(m.constants()), nullptr);
+  const auto &line = *outlet_line(m.constants());
+  EXPECT_EQ(line.segments(), 1u);
+  EXPECT_EQ(m.component("line_inertance"), &line);
   m.set_closed(0, false);
   std::vector<double> y(m.n_states(), 0.0);
   y[state::outlet_reed_x] = 40e-6;
@@ -736,10 +744,10 @@ TEST(Effects, InertialLineFeedsTheHighSideThroughItsOwnNode)
   const double d = p.lines.diameter_m, A = std::numbers::pi * d * d / 4;
   const double l      = 3 * 1.12e8 * A / (4 * p.fluid.density_kg_per_m3);
   EXPECT_NEAR(l, 1.58, 0.01); // 1.58 m of the case's 4.57 mm line
-  EXPECT_NEAR(c.added_line_length, l, 1e-12 * l);
+  EXPECT_NEAR(line.added_length_m(), l, 1e-12 * l);
   const double C_line = A * l / p.fluid.effective_bulk_modulus_Pa();
   const double C_node = 0.1 * C_h0 + 0.5 * C_line;
-  EXPECT_NEAR(c.C_node, C_node, 1e-12 * C_node);
+  EXPECT_NEAR(line.node_compliance(), C_node, 1e-12 * C_node);
   EXPECT_NEAR(c.C_h, 0.9 * C_h0 + 0.5 * C_line, 1e-12 * C_h0);
   const double R_line = 128 * p.fluid.viscosity_Pa_s * l / (std::numbers::pi * std::pow(d, 4));
   EXPECT_NEAR(c.R3, c0.R3 + R_line, 1e-12 * c.R3);
@@ -762,12 +770,13 @@ TEST(Effects, InertialLineFeedsTheHighSideThroughItsOwnNode)
   ma.set_closed(0, false);
   const auto  &ca   = ma.constants();
   const double V_h0 = make(reference(), Scenario::no_flow, 150).constants().V_h;
-  EXPECT_NEAR(ca.V_node, 0.1 * V_h0 + 0.5 * A * l, 1e-12 * V_h0);
+  const auto &line_a = *outlet_line(ca);
+  EXPECT_NEAR(line_a.node_oil_volume(), 0.1 * V_h0 + 0.5 * A * l, 1e-12 * V_h0);
   EXPECT_NEAR(ca.V_h, 0.9 * V_h0 + 0.5 * A * l, 1e-12 * V_h0);
   m.rhs(0.0, y, ydot);
   std::vector<double> ydot_air(ma.n_states());
   ma.rhs(0.0, y, ydot_air);
-  const double C_air = ca.C_node + ca.V_node * FreeAir(pa.fluid).gas_compliance_per_volume(0.9e6);
+  const double C_air = line_a.node_compliance() + line_a.node_oil_volume() * FreeAir(pa.fluid).gas_compliance_per_volume(0.9e6);
   EXPECT_NEAR(ydot_air[state::line_node_p], (ma.flows(y).q_outlet - 1e-6) / C_air,
               1e-9 * std::abs((ma.flows(y).q_outlet - 1e-6) / C_air));
   EXPECT_LT(ydot_air[state::line_node_p], 0.9 * ydot[state::line_node_p]); // the air softens it

@@ -16,6 +16,7 @@
 #include <numbers>
 
 #include "diagnosis/effect.h"
+#include "system/components/outlet_line.h"
 
 namespace rectify::diagnosis
 {
@@ -43,8 +44,8 @@ namespace rectify::diagnosis
                                       auto p = base;
                                       p.lines.outlet_inertance_Pa_s2_per_m3 = L;
                                       p.lines.outlet_line_segments          = hose_sections;
-                                      return system::ModelConstants(p, system::Scenario::no_flow)
-                                        .outlet_line_ringing_Hz();
+                                      return system::outlet_line_ringing_Hz(
+                                        system::ModelConstants(p, system::Scenario::no_flow));
                                     }}},
       [](std::span<const double> v, system::SystemParameters &p) {
         p.lines.outlet_inertance_Pa_s2_per_m3 = v[0] > off_below * (1 + 1e-9) ? v[0] : 0.0;

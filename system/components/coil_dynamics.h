@@ -20,7 +20,7 @@ namespace rectify::system
       : R_(t.coil_resistance_ohm)
       , L_(t.coil_inductance_H)
     {}
-    static std::shared_ptr<const Component> make(const SystemParameters &p, Scenario)
+    static std::shared_ptr<const Component> make(const SystemParameters &p, Scenario, const ModelConstants &)
     {
       return p.drive.coil_dynamics == "on" ? std::make_shared<CoilDynamics>(p.transducer) : nullptr;
     }
@@ -36,11 +36,12 @@ namespace rectify::system
     {
       y[state::coil_current] = drive.value(0.0) / R_;
     }
-    void own_rhs(double t, std::span<const double> y, const Drive &drive, std::span<double> ydot) const override
+    void own_rhs(double t, std::span<const double> y, const Model &model, const Flows &,
+                 std::span<double> ydot) const override
     {
-      ydot[state::coil_current] = (drive.value(t) - R_ * y[state::coil_current]) / L_;
+      ydot[state::coil_current] = (model.drive().value(t) - R_ * y[state::coil_current]) / L_;
     }
-    void own_reads(std::vector<std::vector<std::size_t>> &r) const override
+    void own_reads(std::vector<std::vector<std::size_t>> &r, const std::vector<std::size_t> &) const override
     {
       r[state::piston_v].push_back(state::coil_current); // the rod's force
       r[state::coil_current] = {state::coil_current};

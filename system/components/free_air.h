@@ -30,7 +30,7 @@ namespace rectify::system
       , constant_modulus_(fluid.free_air_law == "constant-modulus")
     {}
     /// On with a free-air fraction.
-    static std::shared_ptr<const Component> make(const SystemParameters &p, Scenario)
+    static std::shared_ptr<const Component> make(const SystemParameters &p, Scenario, const ModelConstants &)
     {
       return p.fluid.free_air_fraction > 0 ? std::make_shared<FreeAir>(p.fluid) : nullptr;
     }

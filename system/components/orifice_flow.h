@@ -21,7 +21,7 @@ namespace rectify::system
     explicit OrificeFlow(double factor)
       : factor_(factor)
     {}
-    static std::shared_ptr<const Component> make(const SystemParameters &p, Scenario)
+    static std::shared_ptr<const Component> make(const SystemParameters &p, Scenario, const ModelConstants &)
     {
       const double Cd = p.valves.orifice_discharge_coefficient;
       if (!(Cd > 0))

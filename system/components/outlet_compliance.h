@@ -17,7 +17,7 @@ namespace rectify::system
     explicit OutletCompliance(double compliance_m3_per_Pa)
       : C_seal_(compliance_m3_per_Pa)
     {}
-    static std::shared_ptr<const Component> make(const SystemParameters &p, Scenario)
+    static std::shared_ptr<const Component> make(const SystemParameters &p, Scenario, const ModelConstants &)
     {
       const double C = p.cylinder.seal_compliance_m3_per_Pa;
       return C > 0 ? std::make_shared<OutletCompliance>(C) : nullptr;

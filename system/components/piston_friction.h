@@ -24,7 +24,7 @@ namespace rectify::system
       , v_stribeck_(load.stribeck_velocity_m_per_s)
     {}
     /// On with a Coulomb force.
-    static std::shared_ptr<const Component> make(const SystemParameters &p, Scenario)
+    static std::shared_ptr<const Component> make(const SystemParameters &p, Scenario, const ModelConstants &)
     {
       return p.load.coulomb_friction_N > 0 ? std::make_shared<PistonFriction>(p.load) : nullptr;
     }

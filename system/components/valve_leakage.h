@@ -15,7 +15,7 @@ namespace rectify::system
     explicit ValveLeakage(double resistance_Pa_s_per_m3)
       : R_leak_(resistance_Pa_s_per_m3)
     {}
-    static std::shared_ptr<const Component> make(const SystemParameters &p, Scenario)
+    static std::shared_ptr<const Component> make(const SystemParameters &p, Scenario, const ModelConstants &)
     {
       const double R = p.valves.leak_resistance_Pa_s_per_m3;
       return R > 0 ? std::make_shared<ValveLeakage>(R) : nullptr;

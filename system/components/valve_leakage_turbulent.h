@@ -17,7 +17,7 @@ namespace rectify::system
     ValveLeakageTurbulent(double area_m2, double density_kg_per_m3)
       : K_leak_(density_kg_per_m3 / (2.0 * area_m2 * area_m2))
     {}
-    static std::shared_ptr<const Component> make(const SystemParameters &p, Scenario)
+    static std::shared_ptr<const Component> make(const SystemParameters &p, Scenario, const ModelConstants &)
     {
       const double A = p.valves.leak_area_m2;
       return A > 0 ? std::make_shared<ValveLeakageTurbulent>(A, p.fluid.density_kg_per_m3) : nullptr;
