@@ -12,6 +12,7 @@
 #include "diagnosis/kept_fits.h"
 #include "diagnosis/report.h"
 #include "diagnosis/sensors.h"
+#include "diagnosis/words.h"
 #include "system/model.h"
 
 namespace rectify::app
@@ -111,8 +112,9 @@ namespace rectify::app
       std::printf("effect: %s", result.rounds.front().effect.c_str());
       for (std::size_t k = 1; k < result.rounds.size(); ++k)
         std::printf(", then %s", result.rounds[k].effect.c_str());
-      std::printf("\n%s\n", result.rounds.front().decision.c_str());
-      std::printf("verdict: %s. %s\n", diagnosis::to_string(result.verdict).c_str(), result.verdict_sentence.c_str());
+      std::printf("\n%s\n", diagnosis::decision_words(result.rounds.front()).c_str());
+      std::printf("verdict: %s. %s\n", diagnosis::to_string(result.verdict).c_str(),
+                  diagnosis::verdict_words(result).c_str());
       if (!result.rounds.front().uncertainty_sentence.empty())
         std::printf("parameters: %s\n", result.rounds.front().uncertainty_sentence.c_str());
       for (const auto &rc : result.runs)

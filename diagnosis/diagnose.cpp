@@ -18,6 +18,7 @@
 #include "diagnosis/search.h"
 #include "diagnosis/sensors.h"
 #include "diagnosis/verdict.h"
+#include "diagnosis/words.h"
 
 namespace rectify::diagnosis
 {
@@ -36,14 +37,6 @@ namespace rectify::diagnosis
     };
 
     FitScores scores(const CandidateResult &c) { return {c.effect, c.bic, c.rms_train, c.rms_heldout}; }
-
-    std::string said(const std::vector<BaselineParameter> &b)
-    {
-      std::string out;
-      for (const auto &x : b)
-        out += (out.empty() ? "" : ", ") + x.name + " " + x.note;
-      return out.empty() ? std::string("nothing to try (its effect sets it)") : out;
-    }
 
     /// One round: the baseline and every candidate fitted, judged, the named
     /// one refined (named_refit.h).
@@ -111,7 +104,6 @@ namespace rectify::diagnosis
       std::optional<Evaluator>          baseline_ev_;
       std::vector<BaselineParameter>    left_off_; ///< the parameters the baseline holds off
       std::vector<std::size_t>          order_;    ///< the candidates by BIC
-      std::string                       reasons_;  ///< the judgement in words, as it goes
       /// Judged twice at most: the second time only the nearest miss, with
       /// the parameters the case leaves out tried on at none's fit and at its own
       std::vector<std::size_t>          judged_;
@@ -290,20 +282,15 @@ namespace rectify::diagnosis
       std::vector<Signals> made;
       auto                 again = fit(*baseline_ev_, made, &from, 0.05);
       const bool           kept  = !again.failed && again.bic < fitted_[0].bic;
-      char                 buf[400];
-      std::snprintf(buf, sizeof buf,
-                    "none refitted from %s's baseline: BIC %.6g against %.6g from the case's (training RMS "
-                    "%.4g against %.4g noise units), %s",
-                    fitted_[k].effect.c_str(), again.bic, fitted_[0].bic, again.rms_train, fitted_[0].rms_train,
-                    kept ? "kept: every candidate is judged against it" : "not better: none's fit stands");
-      x_.say("%s; %d runs, %.1f s", buf, again.evaluations, seconds_since(began));
       rr_.none_restart = {fitted_[k].effect, fitted_[0].bic, again.bic, fitted_[0].rms_train, again.rms_train, kept};
+      x_.say("%s; %d runs, %.1f s", none_restart_words(rr_.none_restart).c_str(), again.evaluations,
+             seconds_since(began));
       if (kept)
         {
           again.evaluations += fitted_[0].evaluations;
           fitted_[0]      = again;
           predictions_[0] = made;
-          reasons_ += std::string(buf) + ". ";
+          rr_.judging.push_back({RoundResult::JudgingStep::Kind::none_refitted});
         }
       else
         fitted_[0].evaluations += again.evaluations;
@@ -314,6 +301,7 @@ namespace rectify::diagnosis
     /// leaves out tried on (judge_nearest_miss_again).
     void Round::judge_candidates()
     {
+      rr_.rules = rules();
       for (int look = 0; look < 2; ++look)
         {
           bic_min_ = 1e300;
@@ -349,7 +337,7 @@ namespace rectify::diagnosis
         {
           const auto &c = fitted_[i];
           auto        j = judge_one(i, fitted_[0], predictions_[0]);
-          reasons_ += describe(j, scores(c), scores(fitted_[0]), rules());
+          rr_.judging.push_back({RoundResult::JudgingStep::Kind::judged, j, scores(c), scores(fitted_[0])});
           if (j.stop())
             return false; // the rest rank lower still
           if (!j.named())
@@ -364,19 +352,18 @@ namespace rectify::diagnosis
           if (look == 0 && !named_from_ && sets_left_out(todo_[i]))
             {
               const auto &t      = none_tried();
-              rr_.set_by_effect = {c.effect, t.left, true, "", fitted_[0].bic, fitted_[0].rms_train};
+              rr_.set_by_effect = {c.effect, t.left, true, {}, {}, {}, fitted_[0].bic, fitted_[0].rms_train};
               if (t.on)
                 {
                   auto again = judge_one(i, t.fit, t.made);
                   if (!again.named())
                     {
-                      const auto why = describe(again, scores(c), scores(t.fit),
-                                                rules());
-                      rr_.set_by_effect.named  = false;
-                      rr_.set_by_effect.reason = why;
-                      reasons_ += c.effect + " passed every rule against none, but it sets what the "
-                                             "case leaves out, and against none with that tried on (" +
-                                  said(t.left) + "): " + why;
+                      rr_.set_by_effect.named     = false;
+                      rr_.set_by_effect.judgement = again;
+                      rr_.set_by_effect.candidate = scores(c);
+                      rr_.set_by_effect.baseline  = scores(t.fit);
+                      rr_.judging.push_back({RoundResult::JudgingStep::Kind::set_by_effect_rejected, again,
+                                             scores(c), scores(t.fit)});
                       continue;
                     }
                   fitted_[0]      = t.fit; // the baseline it is judged, and its verdict given, against
@@ -456,24 +443,17 @@ namespace rectify::diagnosis
     void Round::name(std::size_t i, const Judgement &j)
     {
       const auto &c     = fitted_[i];
-      const auto &f     = j.feature;
-      char        buf[512];
       rr_.effect        = c.effect;
       rr_.values        = c.values;
       rr_.force_gain    = c.force_gain;
       rr_.baseline      = c.baseline;
       rr_.confidence    = std::exp(-0.5 * (c.bic - bic_min_)) / weight_sum_;
       rr_.signature_explained = true;
-      std::snprintf(buf, sizeof buf, "dominant residual feature (%s, %s half) %.3g -> %.3g noise units",
-                    f.signal.c_str(), f.half.c_str(), f.before, f.after);
-      rr_.signature_detail = buf;
-      const bool  second   = order_.size() > 1;
-      const auto &next     = second ? fitted_[order_[order_[0] == i ? 1 : 0]] : c;
-      std::snprintf(buf, sizeof buf,
-                    "%s: BIC better than none by %.1f, held-out RMS %.4g vs none's %.4g, next best %s by %.1f; ",
-                    c.effect.c_str(), fitted_[0].bic - c.bic, c.rms_heldout, fitted_[0].rms_heldout,
-                    second ? next.effect.c_str() : "-", second ? next.bic - c.bic : 0.0);
-      rr_.decision = std::string(buf) + rr_.signature_detail;
+      rr_.feature             = j.feature;
+      const bool  second      = order_.size() > 1;
+      const auto &next        = second ? fitted_[order_[order_[0] == i ? 1 : 0]] : c;
+      rr_.named = {fitted_[0].bic - c.bic, c.rms_heldout, fitted_[0].rms_heldout, second ? next.effect : "-",
+                   second ? next.bic - c.bic : 0.0};
       x_.current   = predictions_[i];
       Evaluator ev = named_from_ ? *named_from_ : *baseline_ev_; // one fit: its runs at once
       if (!named_from_)
@@ -509,19 +489,12 @@ namespace rectify::diagnosis
       CandidateResult near_with = fitted_[k];
       auto            near_made = predictions_[k];
       const auto      near_left = calibrate_left_out(near_ev, near_with, near_made, x_.cores);
-      char            buf[160];
-      std::snprintf(buf, sizeof buf, "%s, the nearest miss (%.0f %% of the gap closed%s)", fitted_[k].effect.c_str(),
-                    100 * near_judged_.closed,
-                    near_judged_.failed == Rule::feature ? ", too little of the dominant feature" : "");
-      const std::string tried = std::string("the parameters the case leaves out, tried on at none's fit and at ") +
-                                buf + ": at none's, " + said(none_left) + "; at " + fitted_[k].effect + "'s, " +
-                                said(near_left);
-      x_.say("%s, %.1f s", tried.c_str(), seconds_since(began));
       rr_.near_miss = {fitted_[k].effect,
                        near_judged_.closed,
                        rule_name(near_judged_.failed),
-                       describe(near_judged_, scores(fitted_[k]), scores(fitted_[0]),
-                                rules()),
+                       near_judged_,
+                       scores(fitted_[k]),
+                       scores(fitted_[0]),
                        fitted_[0].bic,
                        fitted_[0].rms_train,
                        fitted_[k].bic,
@@ -529,13 +502,13 @@ namespace rectify::diagnosis
                        none_left,
                        near_left,
                        false};
+      x_.say("%s, %.1f s", nearest_miss_tried_words(rr_.near_miss).c_str(), seconds_since(began));
       const bool near_on = std::any_of(near_left.begin(), near_left.end(),
                                        [](const BaselineParameter &b) { return b.value != 0.0; });
+      rr_.judging.push_back({RoundResult::JudgingStep::Kind::nearest_miss_tried});
       if (!at_none.on && !near_on)
-        {
-          reasons_ += "Then " + tried + ": nothing changed. ";
-          return false;
-        }
+        return false;
+      rr_.judging.back().changed = true;
       saved_none_      = fitted_[0];
       saved_near_      = fitted_[k];
       saved_made_      = {predictions_[0], predictions_[k]};
@@ -546,7 +519,6 @@ namespace rectify::diagnosis
       near_ev.reference = nullptr;
       named_from_.emplace(near_ev);
       judged_ = {k};
-      reasons_ += "Then " + tried + "; judged again: ";
       return true;
     }
 
@@ -562,18 +534,10 @@ namespace rectify::diagnosis
           fitted_[k]          = *saved_near_;
           predictions_[0]     = saved_made_[0];
           predictions_[k]     = saved_made_[1];
-          reasons_ += "The fits without them stand. ";
+          rr_.judging.push_back({RoundResult::JudgingStep::Kind::fits_without_stand});
         }
       else if (look == 1)
-        {
-          rr_.near_miss.named = true;
-          rr_.decision += "; named after its fit and none's were made again with the parameters the case "
-                          "leaves out (it was the nearest miss without them: " +
-                          std::string(rr_.near_miss.missed_by == "feature"
-                                        ? "it explained too little of the dominant feature"
-                                        : "it closed too little of the gap") +
-                          ")";
-        }
+        rr_.near_miss.named = true;
       if (rr_.effect == "none")
         {
           const auto &none = fitted_[0];
@@ -581,7 +545,6 @@ namespace rectify::diagnosis
           rr_.force_gain   = none.force_gain;
           rr_.baseline     = none.baseline;
           rr_.confidence   = std::exp(-0.5 * (none.bic - bic_min_)) / weight_sum_;
-          rr_.decision     = "no significant missing effect: " + reasons_;
           x_.current       = predictions_[0];
         }
     }
@@ -684,15 +647,13 @@ namespace rectify::diagnosis
       for (std::size_t r = 0; r < runs.size(); ++r)
         result.localisation.push_back(
           localise(runs[r].run, result.before[r], runs[r].setup.frequency_Hz, runs[r].swings));
-      std::vector<double> f, a, res;
       for (std::size_t r = 0; r < runs.size(); ++r)
         {
-          f.push_back(runs[r].setup.frequency_Hz);
           const auto &d = runs[r].run.signal(runs[r].run.drive_column());
-          a.push_back(*std::max_element(d.begin(), d.end()) - *std::min_element(d.begin(), d.end()));
-          res.push_back(residual_norms(runs[r].run, result.before[r], runs[r].swings, runs[r].n_skip).at("overall"));
+          result.run_levels.push_back(
+            {runs[r].setup.frequency_Hz, *std::max_element(d.begin(), d.end()) - *std::min_element(d.begin(), d.end()),
+             residual_norms(runs[r].run, result.before[r], runs[r].swings, runs[r].n_skip).at("overall")});
         }
-      result.trend_sentences = trends(f, a, res);
       x_.current             = result.before;
     }
 
@@ -767,22 +728,9 @@ namespace rectify::diagnosis
                                                                      runs[r].setup.frequency_Hz, runs[r].swings,
                                                                      runs[r].scales, runs[r].n_skip));
         }
-      std::string where;
-      if (const auto [r, most] = most_remaining(result.remaining); most)
-        where = most->description + (runs.size() > 1 ? " (run " + runs[r].run.source + ")" : "");
       const std::string named_effect = result.rounds.front().effect;
       result.verdict                 = verdict_of(named_effect != "none", after, floor_units);
-      result.verdict_sentence =
-        verdict_sentence(result.verdict, named_effect, baseline, after, floor_units, result.explained_fraction, where);
-      if (std::any_of(result.sensor_lags.begin(), result.sensor_lags.end(),
-                      [](const SensorLag &l) { return !std::isinf(l.applied_Hz()); }))
-        {
-          char buf[200];
-          std::snprintf(buf, sizeof buf,
-                        " (the model seen through the sensors' fitted lags; with ideal sensors %.3g noise units)",
-                        result.residual_after_ideal.at("overall"));
-          result.verdict_sentence += buf;
-        }
+      result.floor_units             = floor_units;
       // Nothing named, but the calibrated baseline moved a quantity a
       // candidate shares with it (the high side's compliance: a longer oil
       // column or a soft seal) beyond what the case holds: the record cannot
@@ -791,8 +739,6 @@ namespace rectify::diagnosis
         return;
       result.absorbed_by_baseline =
         absorbed_by_baseline(x_.library, x_.base_in, result.final_parameters, x_.options.absorbed_factor);
-      for (const auto &a : result.absorbed_by_baseline)
-        result.verdict_sentence += absorbed_sentence(a);
     }
   } // namespace
 

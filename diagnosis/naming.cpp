@@ -38,38 +38,6 @@ namespace rectify::diagnosis
     return j;
   }
 
-  std::string describe(const Judgement &j, const FitScores &c, const FitScores &base, const NamingRules &rules)
-  {
-    char buf[512];
-    switch (j.failed)
-      {
-        case Rule::passed:
-          return "";
-        case Rule::evidence:
-          std::snprintf(buf, sizeof buf, "%s: BIC better than none by only %.1f (needs > %.0f). ", c.effect.c_str(),
-                        j.delta_bic, rules.bic_threshold);
-          break;
-        case Rule::held_out:
-          std::snprintf(buf, sizeof buf, "%s: held-out residual %.4g not below none's %.4g. ", c.effect.c_str(),
-                        c.rms_heldout, base.rms_heldout);
-          break;
-        case Rule::gap:
-          std::snprintf(buf, sizeof buf,
-                        "%s: closes only %.0f %% of the gap above the noise that the calibrated baseline "
-                        "leaves (training RMS %.3g -> %.3g noise units; needs %.0f %%). ",
-                        c.effect.c_str(), 100 * j.closed, base.rms_train, c.rms_train, 100 * rules.min_gap_closed);
-          break;
-        case Rule::feature:
-          std::snprintf(buf, sizeof buf,
-                        "%s: explains too little of the dominant feature (%s, %s half: %.3g -> %.3g noise "
-                        "units; half of it above the noise needed). ",
-                        c.effect.c_str(), j.feature.signal.c_str(), j.feature.half.c_str(), j.feature.before,
-                        j.feature.after);
-          break;
-      }
-    return buf;
-  }
-
   std::string rule_name(Rule r)
   {
     return r == Rule::gap ? "gap" : r == Rule::feature ? "feature" : "";

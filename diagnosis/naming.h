@@ -15,7 +15,7 @@
 //
 // Takes: the fits' scores (and, for rule 4, the feature's, asked for only
 // where rules 1-3 pass). Gives: the Judgement, a pure function of them;
-// describe() puts it in words.
+// words.h's describe() puts it in words.
 #pragma once
 
 #include <functional>
@@ -71,11 +71,6 @@ namespace rectify::diagnosis
   /// called only where rules 1-3 pass.
   Judgement judge(const FitScores &candidate, const FitScores &baseline,
                   const std::function<FeatureScores()> &feature, const NamingRules &rules);
-
-  /// Why the candidate was not named, in one sentence ending ". " (empty
-  /// where it was).
-  std::string describe(const Judgement &j, const FitScores &candidate, const FitScores &baseline,
-                       const NamingRules &rules);
 
   /// "gap" or "feature" for a near miss's rule, else "".
   std::string rule_name(Rule r);

@@ -11,6 +11,7 @@
 #include "common/plot.h"
 #include "common/version.h"
 #include "diagnosis/fit.h"
+#include "diagnosis/words.h"
 
 namespace rectify::diagnosis
 {
@@ -100,7 +101,7 @@ namespace rectify::diagnosis
             (rr.effect == "none" ? std::string("no significant missing effect") : "**" + rr.effect + "**") + "\n\n";
       if (rr.effect != "none")
         md += named_section(rr, options);
-      md += "- force gain (nuisance): " + sci(rr.force_gain) + "\n- evidence: " + rr.decision + "\n\n";
+      md += "- force gain (nuisance): " + sci(rr.force_gain) + "\n- evidence: " + decision_words(rr) + "\n\n";
       md += "| candidate | k | BIC - BIC(none) | AIC | RMS train | RMS held-out | parameters |\n|---|---|---|---|---|---|---|\n";
       double none_bic = 0;
       for (const auto &c : rr.candidates)
@@ -371,7 +372,7 @@ namespace rectify::diagnosis
     {
       std::string md = "# rectify diagnose\n\nCase: `" + o.case_path + "`, scenario " + o.scenario + ".\n\n";
       md += "The reeds' second mode in the baseline: " + second_mode.text() + ".\n\n";
-      md += "**Verdict: " + to_string(result.verdict) + ".** " + result.verdict_sentence + ".\n\n";
+      md += "**Verdict: " + to_string(result.verdict) + ".** " + verdict_words(result) + ".\n\n";
       if (!result.rounds.front().uncertainty_sentence.empty())
         md += "Parameters: " + result.rounds.front().uncertainty_sentence + ".\n\n";
       md += records_section() + baseline_section() + before_section();
@@ -449,7 +450,7 @@ namespace rectify::diagnosis
             md += "- " + s.description + "\n";
           md += "\n";
         }
-      for (const auto &s : result.trend_sentences)
+      for (const auto &s : trends(result.run_levels))
         md += "- " + s + "\n";
       return md;
     }

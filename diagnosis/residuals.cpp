@@ -449,29 +449,4 @@ namespace rectify::diagnosis
     return out;
   }
 
-  std::vector<std::string> trends(const std::vector<double> &f, const std::vector<double> &a,
-                                  const std::vector<double> &r)
-  {
-    std::vector<std::string> out;
-    if (f.size() < 2)
-      return out;
-    const auto describe = [&](const std::vector<double> &x, const std::string &what,
-                              const std::string &unit) {
-      std::vector<std::size_t> idx(x.size());
-      for (std::size_t i = 0; i < idx.size(); ++i)
-        idx[i] = i;
-      std::sort(idx.begin(), idx.end(), [&](auto i, auto j) { return x[i] < x[j]; });
-      if (x[idx.front()] == x[idx.back()])
-        return;
-      std::string s = "residual against " + what + ":";
-      for (auto i : idx)
-        s += " " + format_number(std::round(x[i] * 10) / 10) + " " + unit + " -> " + percent(r[i]) + ";";
-      const double lo = r[idx.front()], hi = r[idx.back()];
-      s += hi > 1.5 * lo ? " grows with " + what : lo > 1.5 * hi ? " falls with " + what : " about flat";
-      out.push_back(s);
-    };
-    describe(f, "frequency", "Hz");
-    describe(a, "drive amplitude", "(drive units p-p)");
-    return out;
-  }
 } // namespace rectify::diagnosis

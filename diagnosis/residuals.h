@@ -107,12 +107,6 @@ namespace rectify::diagnosis
                                                        const std::map<std::string, double> &swings,
                                                        const std::map<std::string, double> &noise, std::size_t from);
 
-  /// Sentences on trends over several runs: residual against frequency and
-  /// drive amplitude.
-  std::vector<std::string> trends(const std::vector<double> &frequencies_Hz,
-                                  const std::vector<double> &drive_amplitudes,
-                                  const std::vector<double> &overall_residuals);
-
   /// Residual energy of `signal` in the given half of the cycle over the
   /// record (for the signature check), normalised.
   double half_cycle_residual(const MeasuredRun &run, const Signals &model, double frequency_Hz,

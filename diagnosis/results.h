@@ -1,7 +1,7 @@
 // The diagnosis's results as data (what each stage gives, diagnose.h): the
 // baseline's parameters, each candidate's fit and scores, a round's naming
 // and refinement, the named parameters' uncertainty, the verdict. Words are
-// written from these by the report (report.h, summary_json.cpp).
+// written from these by the report (words.h, report.h, summary_json.cpp).
 #pragma once
 
 #include <array>
@@ -14,6 +14,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "diagnosis/naming.h"
 #include "diagnosis/observation.h"
 #include "diagnosis/residuals.h"
 #include "diagnosis/runs.h"
@@ -129,7 +130,8 @@ namespace rectify::diagnosis
       std::string                    effect;
       double                         closed = 0; ///< share of the gap it closed without them
       std::string                    missed_by;  ///< the rule it failed without them: "gap" or "feature"
-      std::string                    reason;     ///< that rule's sentence
+      Judgement                      judgement;  ///< without them, its scores and none's
+      FitScores                      candidate, baseline;
       /// none's and its fits without them (the candidates' table holds the
       /// fits with them where it was named)
       double none_bic = 0, none_rms_train = 0, effect_bic = 0, effect_rms_train = 0;
@@ -144,7 +146,9 @@ namespace rectify::diagnosis
       std::string                    effect;
       std::vector<BaselineParameter> at_none; ///< what none's try did with it
       bool                           named = false;
-      std::string                    reason;  ///< why not, where not
+      /// why not, where not: judged against none with it tried on
+      Judgement                      judgement;
+      FitScores                      candidate, baseline;
       double none_bic = 0, none_rms_train = 0; ///< none's fit without it (the table's none is with it where on)
     } set_by_effect;
     /// none refitted from the best candidate's baseline before any was
@@ -156,10 +160,34 @@ namespace rectify::diagnosis
       bool        kept = false;          ///< it fitted better and stood as none's fit
     } none_restart;
     double                       confidence = 0; ///< BIC weight of the named candidate
-    std::string                  decision;       ///< the reasoning in words
+    NamingRules                  rules;          ///< the rules it was judged by
+    /// One step of the round's judging, in order (words.h: the decision in words).
+    struct JudgingStep
+    {
+      enum class Kind
+      {
+        none_refitted,          ///< none refitted from the best candidate's baseline, kept (none_restart)
+        judged,                 ///< a candidate judged against none: judgement, candidate, baseline
+        set_by_effect_rejected, ///< it passed, but not against none with what it sets tried on (set_by_effect)
+        nearest_miss_tried,     ///< the left-out parameters tried at none's and the nearest miss's fits (near_miss)
+        fits_without_stand      ///< the nearest miss not named with them either: the fits without them stand
+      };
+      Kind      kind = Kind::judged;
+      Judgement judgement;
+      FitScores candidate, baseline;
+      bool      changed = false; ///< nearest_miss_tried: one of them turned on
+    };
+    std::vector<JudgingStep>     judging;
+    /// The named candidate against none and the next best by BIC (none: "-")
+    struct Named
+    {
+      double      delta_bic = 0, rms_heldout = 0, none_rms_heldout = 0;
+      std::string next = "-";
+      double      next_delta_bic = 0;
+    } named;
     std::vector<CandidateResult> candidates;
     bool                         signature_explained = false;
-    std::string                  signature_detail;
+    FeatureScores                feature; ///< the dominant residual feature, where signature_explained
     int                          refine_passes = 0; ///< refits with rescaled residuals
     std::vector<ParameterUncertainty> uncertainty;  ///< per effect parameter, at the final fit
     std::optional<CombinedEstimate>   combined;     ///< when the effect declares a combination
@@ -211,6 +239,14 @@ namespace rectify::diagnosis
     bool at_lowest() const { return fitted_Hz <= lowest_Hz / (1 - 1e-3); }
   };
 
+  /// A run's level: its pumping frequency, its drive's peak-to-peak and the
+  /// case's overall residual on it (as a fraction of the swing) - the trends
+  /// over the runs (words.h).
+  struct RunLevel
+  {
+    double frequency_Hz = 0, drive_pp = 0, residual = 0;
+  };
+
   struct DiagnosisResult
   {
     std::vector<RoundResult> rounds;
@@ -223,14 +259,14 @@ namespace rectify::diagnosis
     std::map<std::string, double> swing_before, swing_after; ///< the same as fractions of each swing
     std::vector<RunCase>      runs;                ///< the runs with their calibrated scales
     std::vector<Localisation> localisation;       ///< per run, before
-    std::vector<std::string>  trend_sentences;
+    std::vector<RunLevel>     run_levels;         ///< per run, the case's model as given
     /// The honest verdict: "explained" (the named effect leaves at most
     /// beyond_library_noise_units), "partly explained" (it leaves more: model
     /// error beyond the library), "no missing effect" (the baseline fit
     /// leaves at most that), "beyond the library" (no effect helps and the
     /// residual stays above it).
     Verdict                   verdict = Verdict::no_missing_effect;
-    std::string               verdict_sentence;
+    double                    floor_units = 0;        ///< DiagnoseOptions::beyond_library_noise_units, as judged
     double                    explained_fraction = 0; ///< of the gap above the noise left by the baseline fit
     /// Per run, what the final model leaves in each signal, in noise units
     /// from the run's settling on, the most first (residuals_in_noise_units);

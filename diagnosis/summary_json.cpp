@@ -6,6 +6,7 @@
 #include "diagnosis/diagnose.h"
 #include "diagnosis/fit.h"
 #include "diagnosis/search.h"
+#include "diagnosis/words.h"
 
 namespace rectify::diagnosis
 {
@@ -113,7 +114,7 @@ namespace rectify::diagnosis
         near_miss = {{"effect", rr.near_miss.effect},
                      {"gap_closed_without", rr.near_miss.closed},
                      {"missed_by", rr.near_miss.missed_by},
-                     {"reason_without", rr.near_miss.reason},
+                     {"reason_without", near_miss_reason(rr)},
                      {"none_without", {{"bic", rr.near_miss.none_bic}, {"rms_train", rr.near_miss.none_rms_train}}},
                      {"effect_without",
                       {{"bic", rr.near_miss.effect_bic}, {"rms_train", rr.near_miss.effect_rms_train}}},
@@ -130,7 +131,7 @@ namespace rectify::diagnosis
         set_by_effect = {{"effect", rr.set_by_effect.effect},
                          {"at_none", tries(rr.set_by_effect.at_none)},
                          {"named", rr.set_by_effect.named},
-                         {"reason", rr.set_by_effect.reason},
+                         {"reason", set_by_effect_reason(rr)},
                          {"none_without",
                           {{"bic", rr.set_by_effect.none_bic}, {"rms_train", rr.set_by_effect.none_rms_train}}}};
       return set_by_effect;
@@ -213,9 +214,9 @@ namespace rectify::diagnosis
               {"none_restarted", none_restart},
               {"left_out_judged_with_the_effect_that_sets_it", set_by_effect},
               {"confidence", rr.confidence},
-              {"decision", rr.decision},
+              {"decision", decision_words(rr)},
               {"signature_explained", rr.signature_explained},
-              {"signature", rr.signature_detail},
+              {"signature", signature_words(rr)},
               {"refits_with_rescaled_residuals", rr.refine_passes},
               {"candidates", candidates}};
     }
@@ -397,14 +398,14 @@ namespace rectify::diagnosis
             {"held_partner", rounds.front()["held_partner"]},
             {"uncertainty_sentence", first.uncertainty_sentence},
             {"confidence", first.confidence},
-            {"decision", first.decision},
+            {"decision", decision_words(first)},
             {"residual_before", r.residual_before},
             {"residual_after", r.residual_after},
             {"residual_after_ideal_sensors", r.residual_after_ideal},
             {"sensor_lags", sensors},
             {"residual_shrink", shrink},
             {"verdict", to_string(r.verdict)},
-            {"verdict_sentence", r.verdict_sentence},
+            {"verdict_sentence", verdict_words(r)},
             {"largest_residual_after", largest},
             {"largest_residual_before", largest_json(r.remaining_before, runs)},
             {"absorbed_by_baseline", absorbed},
@@ -426,7 +427,7 @@ namespace rectify::diagnosis
             {"candidates", rounds.front()["candidates"]},
             {"rounds", rounds},
             {"localisation", localisation},
-            {"trends", r.trend_sentences},
+            {"trends", trends(r.run_levels)},
             {"wall_time_s", r.wall_time_s},
             {"runs_evaluated_ahead", r.runs_evaluated_ahead},
             {"definitions", definitions()}};

@@ -6,8 +6,8 @@
 // of the baseline fit and of the final model, the floor
 // (DiagnoseOptions::beyond_library_noise_units).
 // Gives: the Verdict and the share of the gap explained, pure functions of
-// those; the verdict's sentence; the quantities a baseline took up that a
-// candidate shares with it (absorbed_by_baseline).
+// those; the quantities a baseline took up that a candidate shares with it
+// (absorbed_by_baseline). Its words: words.h.
 #pragma once
 
 #include <memory>
@@ -39,11 +39,6 @@ namespace rectify::diagnosis
   /// leaves none.
   double explained_fraction(double residual_baseline, double residual_after);
 
-  /// The verdict in words: `where` is the largest remaining residual's
-  /// description.
-  std::string verdict_sentence(Verdict v, const std::string &named_effect, double residual_baseline,
-                               double residual_after, double floor_units, double explained, const std::string &where);
-
   /// The candidates in `library` whose combined quantity is more than
   /// `factor` times higher with the calibrated baseline `fitted` than with
   /// the case's `case_parameters` (the effects add to it: a seal cannot
@@ -51,8 +46,4 @@ namespace rectify::diagnosis
   std::vector<AbsorbedEffect> absorbed_by_baseline(const std::vector<std::shared_ptr<const Effect>> &library,
                                                    const system::SystemParameters &case_parameters,
                                                    const system::SystemParameters &fitted, double factor);
-
-  /// "; the calibrated baseline holds ... cannot tell the two apart" and how
-  /// to tell them apart, for one absorbed quantity.
-  std::string absorbed_sentence(const AbsorbedEffect &a);
 } // namespace rectify::diagnosis

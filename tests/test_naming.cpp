@@ -1,5 +1,6 @@
-// The naming rules (diagnosis/naming.h) and the verdict (diagnosis/verdict.h)
-// on constructed score tables: no model is run.
+// The naming rules (diagnosis/naming.h), the verdict (diagnosis/verdict.h)
+// and their words (diagnosis/words.h) on constructed score tables: no model
+// is run.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -7,6 +8,7 @@
 
 #include "diagnosis/naming.h"
 #include "diagnosis/verdict.h"
+#include "diagnosis/words.h"
 
 using namespace rectify::diagnosis;
 
@@ -155,4 +157,65 @@ TEST(Verdict, TheExplainedShareIsOfTheGapAboveTheNoise)
                                   explained_fraction(3.0, 2.5), "the outlet pressure's rising half");
   EXPECT_NE(s.find("valve_leakage explains 19 % of the gap"), std::string::npos) << s;
   EXPECT_NE(s.find("Largest remaining residual: the outlet pressure's rising half"), std::string::npos) << s;
+}
+
+// A round's decision in words (words.h) from its judging steps, on a
+// constructed round: each step's sentence in turn, none named.
+TEST(Words, TheDecisionTellsEachJudgingStepInTurn)
+{
+  using Kind = RoundResult::JudgingStep::Kind;
+  RoundResult rr;
+  rr.rules        = rules;
+  rr.none_restart = {"valve_leakage", 1000.0, 990.0, 3.0, 2.9, true};
+  FitScores weak  = good();
+  weak.rms_train  = 2.9; // closes little of the gap
+  const auto near = judge(weak, none, [] { return taken(); }, rules);
+  ASSERT_EQ(near.failed, Rule::gap);
+  rr.near_miss.effect    = "valve_leakage";
+  rr.near_miss.closed    = near.closed;
+  rr.near_miss.missed_by = rule_name(near.failed);
+  rr.near_miss.judgement = near;
+  rr.near_miss.candidate = weak;
+  rr.near_miss.baseline  = none;
+  rr.near_miss.at_none   = {{"lines.outlet_inertance_Pa_s2_per_m3", 0, 0, 0, 0, 0, true, "off (BIC 1001 on)"}};
+  rr.judging = {{Kind::none_refitted},
+                {Kind::judged, near, weak, none},
+                {Kind::nearest_miss_tried, {}, {}, {}, false}};
+  const std::string d = decision_words(rr);
+  EXPECT_EQ(d.rfind("no significant missing effect: none refitted from valve_leakage's baseline: BIC 990 against "
+                    "1000 from the case's (training RMS 2.9 against 3 noise units), kept: every candidate is judged "
+                    "against it. valve_leakage: closes only ",
+                    0),
+            0u)
+    << d;
+  EXPECT_NE(d.find("Then the parameters the case leaves out, tried on at none's fit and at valve_leakage, the nearest "
+                   "miss (" +
+                   std::to_string(static_cast<int>(std::round(100 * near.closed))) +
+                   " % of the gap closed): at none's, lines.outlet_inertance_Pa_s2_per_m3 off (BIC 1001 on); at "
+                   "valve_leakage's, nothing to try (its effect sets it): nothing changed. "),
+            std::string::npos)
+    << d;
+  EXPECT_EQ(near_miss_reason(rr), describe(near, weak, none, rules));
+  EXPECT_EQ(set_by_effect_reason(rr), ""); // no effect set one
+  // the same steps with the try turned something on, then the fits without them standing
+  rr.judging.back().changed = true;
+  rr.judging.push_back({Kind::judged, near, weak, none});
+  rr.judging.push_back({Kind::fits_without_stand});
+  const std::string again = decision_words(rr);
+  EXPECT_NE(again.find("nothing to try (its effect sets it); judged again: valve_leakage: closes only"), std::string::npos)
+    << again;
+  EXPECT_TRUE(again.ends_with("The fits without them stand. ")) << again;
+  EXPECT_EQ(signature_words(rr), "");
+
+  // named: against none and the next best, with its feature
+  rr.effect              = "valve_leakage";
+  rr.named               = {100.0, 1.5, 3.2, "orifice_flow", 42.0};
+  rr.signature_explained = true;
+  rr.feature             = taken();
+  EXPECT_EQ(decision_words(rr), "valve_leakage: BIC better than none by 100.0, held-out RMS 1.5 vs none's 3.2, next "
+                                "best orifice_flow by 42.0; dominant residual feature (outlet_pressure_Pa, rising "
+                                "half) 4 -> 1.25 noise units");
+  rr.near_miss.named = true;
+  EXPECT_NE(decision_words(rr).find("(it was the nearest miss without them: it closed too little of the gap)"),
+            std::string::npos);
 }
