@@ -523,6 +523,111 @@ namespace rectify::system
       const auto [q, g] = pair(u);
       return {q, g / (1.0 + R_s * g), u};
     }
+    /// The inlet branch (junction -> inlet line R4 -> valve R2 with a
+    /// quadratic drop K2 q|q| and its leaks -> chamber; s2 the moving
+    /// reed's source) meeting the accumulator's (g5) and the low side's (g6)
+    /// lines at the junction, which has no capacitance.
+    struct InletBranch
+    {
+      double R2, R4, K2, R_L, K_L, s2, g5, g6, p_bias;
+    };
+    struct InletSolution
+    {
+      double p_junction = 0, q = 0, u = 0; ///< u: the drop across the valve and its leaks (turbulent leak)
+    };
+
+    /// Kirchhoff at the junction for the inlet branch b: its pressure and
+    /// the branch's flow (quadratic: a turbulent leak beside the valve).
+    InletSolution inlet_junction(const InletBranch &b, double p_ch, double p_acc, double p_l, bool quadratic)
+    {
+      const double g5 = b.g5, g6 = b.g6, s2 = b.s2, K2 = b.K2;
+      InletSolution out;
+      // the inlet branch without a turbulent leak, junction -> chamber: flow and its derivative
+      const auto inlet_branch = [&](double dp) { return branch_flow(b.R2 + b.R4, K2, dp + s2); };
+      if (K2 == 0.0 && !quadratic)
+        {
+          const double g24 = 1.0 / (b.R2 + b.R4);
+          out.p_junction   = (g24 * (p_ch - s2) + g5 * p_acc + g6 * p_l) / (g24 + g5 + g6);
+          out.q            = g24 * (out.p_junction - p_ch + s2);
+        }
+      else if (quadratic)
+        {
+          // One equation in the drop u across the inlet valve and its leaks,
+          // q = Q(u) through them: the branch gives the junction's pressure,
+          // p_a = p_ch - s2 + u + R4 Q(u), and Kirchhoff there,
+          // g5 (p_a - p_acc) + g6 (p_a - p_l) + Q(u) = 0, becomes
+          //   F(u) = G u + (1 + G R4) Q(u) + c0 = 0,  G = g5 + g6,
+          //   c0 = g5 (p_ch - s2 - p_acc) + g6 (p_ch - s2 - p_l),
+          // increasing in u, its root between 0 and -c0 / G (Q has u's sign):
+          // Newton, bracketed (one solve, not one per step of an outer one).
+          const double G  = g5 + g6;
+          const double c0 = g5 * (p_ch - s2 - p_acc) + g6 * (p_ch - s2 - p_l);
+          const auto   Q  = [&](double u) { return valve_and_leaks(b.R2, K2, b.R_L, b.K_L, u); };
+          double       u  = 0.0;
+          if (c0 != 0.0)
+            {
+              const double end = -c0 / G;
+              const double A   = 1.0 + G * b.R4;
+              u                = bracketed_newton(
+                [&](double v) {
+                  const auto [q, dq] = Q(v);
+                  return std::pair{G * v + A * q + c0, G + A * dq};
+                },
+                end / (1.0 + A * Q(0.0).second / G), // the linearised guess
+                std::min(0.0, end), std::max(0.0, end), 1e-14 * std::abs(end));
+            }
+          out.u          = u;
+          out.q          = Q(u).first;
+          out.p_junction = p_ch - s2 + u + b.R4 * out.q;
+        }
+      else
+        { // Kirchhoff at the junction, g5 (p_a - p_acc) + g6 (p_a - p_l) + q_in(p_a - p_ch) = 0,
+          // monotone in p_a: Newton from the linear solution, bracketed.
+          const double g24 = 1.0 / (b.R2 + b.R4);
+          double       p_a = (g24 * p_ch + g5 * p_acc + g6 * p_l) / (g24 + g5 + g6);
+          double       lo = std::min({p_ch, p_acc, p_l}), hi = std::max({p_ch, p_acc, p_l});
+          for (int it = 0; it < 60; ++it)
+            {
+              const auto [q, dq] = inlet_branch(p_a - p_ch);
+              const double F     = g5 * (p_a - p_acc) + g6 * (p_a - p_l) + q;
+              (F > 0 ? hi : lo)  = p_a;
+              double next        = p_a - F / (g5 + g6 + dq);
+              if (!(next > lo && next < hi))
+                next = 0.5 * (lo + hi);
+              if (std::abs(next - p_a) <= 1e-13 * (std::abs(p_a) + b.p_bias) || hi - lo <= 0)
+                {
+                  p_a = next;
+                  break;
+                }
+              p_a = next;
+            }
+          out.p_junction = p_a;
+          out.q          = inlet_branch(p_a - p_ch).first;
+        }
+      return out;
+    }
+    /// The mechanics' rows of the thesis model's Jacobian (eqs. 3.6-3.8):
+    /// piston, chamber fluid, output piston; constant.
+    void mechanics_jacobian(const ModelConstants &c, DenseView J)
+    {
+      using namespace state;
+      J(piston_x, piston_v) = 1.0;
+      J(piston_v, piston_x) = -(c.k_eff + c.k_f) / c.m_eff;
+      J(piston_v, piston_v) = -(c.b_f + c.b_eff) / c.m_eff;
+      J(piston_v, fluid_x)  = c.k_f / c.m_eff;
+      J(piston_v, fluid_v)  = c.b_f / c.m_eff;
+      J(fluid_x, fluid_v)   = 1.0;
+      J(fluid_v, piston_x)  = c.k_f / c.m_f;
+      J(fluid_v, piston_v)  = c.b_f / c.m_f;
+      J(fluid_v, fluid_x)   = -c.k_f / c.m_f;
+      J(fluid_v, fluid_v)   = -c.b_f / c.m_f;
+      J(fluid_v, chamber_p) = -c.A_pi / c.m_f;
+      J(actuator_x, actuator_v) = 1.0;
+      J(actuator_v, actuator_x) = -c.k_l / c.m_l;
+      J(actuator_v, actuator_v) = -c.b_l / c.m_l;
+      J(actuator_v, high_p)     = c.A_po / c.m_l;
+      J(actuator_v, low_p)      = -c.A_po / c.m_l;
+    }
   } // namespace
 
   std::vector<double> Model::typical_sizes() const
@@ -620,68 +725,11 @@ namespace rectify::system
       }
     else
       f.q_outlet = f.q_line = outlet_branch(c_.R3, p_ch - p_h);
-    // the inlet branch without a turbulent leak, junction -> chamber: flow and its derivative
-    const auto inlet_branch = [&](double dp) { return branch_flow(f.R2 + c_.R4, K2, dp + s2); };
-    if (K2 == 0.0 && !quadratic2)
-      {
-        const double g24 = 1.0 / (f.R2 + c_.R4);
-        f.p_junction     = (g24 * (p_ch - s2) + g5 * p_acc + g6 * p_l) / (g24 + g5 + g6);
-        f.q_inlet        = g24 * (f.p_junction - p_ch + s2);
-      }
-    else if (quadratic2)
-      {
-        // One equation in the drop u across the inlet valve and its leaks,
-        // q = Q(u) through them: the branch gives the junction's pressure,
-        // p_a = p_ch - s2 + u + R4 Q(u), and Kirchhoff there,
-        // g5 (p_a - p_acc) + g6 (p_a - p_l) + Q(u) = 0, becomes
-        //   F(u) = G u + (1 + G R4) Q(u) + c0 = 0,  G = g5 + g6,
-        //   c0 = g5 (p_ch - s2 - p_acc) + g6 (p_ch - s2 - p_l),
-        // increasing in u, its root between 0 and -c0 / G (Q has u's sign):
-        // Newton, bracketed (one solve, not one per step of an outer one).
-        const double G  = g5 + g6;
-        const double c0 = g5 * (p_ch - s2 - p_acc) + g6 * (p_ch - s2 - p_l);
-        const auto   Q  = [&](double u) { return valve_and_leaks(f.R2, K2, law2.leak_resistance, law2.leak_K, u); };
-        double       u  = 0.0;
-        if (c0 != 0.0)
-          {
-            const double end = -c0 / G;
-            const double A   = 1.0 + G * c_.R4;
-            u                = bracketed_newton(
-              [&](double v) {
-                const auto [q, dq] = Q(v);
-                return std::pair{G * v + A * q + c0, G + A * dq};
-              },
-              end / (1.0 + A * Q(0.0).second / G), // the linearised guess
-              std::min(0.0, end), std::max(0.0, end), 1e-14 * std::abs(end));
-          }
-        u_inlet      = u;
-        f.q_inlet    = Q(u).first;
-        f.p_junction = p_ch - s2 + u + c_.R4 * f.q_inlet;
-      }
-    else
-      { // Kirchhoff at the junction, g5 (p_a - p_acc) + g6 (p_a - p_l) + q_in(p_a - p_ch) = 0,
-        // monotone in p_a: Newton from the linear solution, bracketed.
-        const double g24 = 1.0 / (f.R2 + c_.R4);
-        double       p_a = (g24 * p_ch + g5 * p_acc + g6 * p_l) / (g24 + g5 + g6);
-        double       lo = std::min({p_ch, p_acc, p_l}), hi = std::max({p_ch, p_acc, p_l});
-        for (int it = 0; it < 60; ++it)
-          {
-            const auto [q, dq] = inlet_branch(p_a - p_ch);
-            const double F     = g5 * (p_a - p_acc) + g6 * (p_a - p_l) + q;
-            (F > 0 ? hi : lo)  = p_a;
-            double next        = p_a - F / (g5 + g6 + dq);
-            if (!(next > lo && next < hi))
-              next = 0.5 * (lo + hi);
-            if (std::abs(next - p_a) <= 1e-13 * (std::abs(p_a) + c_.p_bias) || hi - lo <= 0)
-              {
-                p_a = next;
-                break;
-              }
-            p_a = next;
-          }
-        f.p_junction = p_a;
-        f.q_inlet    = inlet_branch(p_a - p_ch).first;
-      }
+    const auto inlet = inlet_junction({f.R2, c_.R4, K2, law2.leak_resistance, law2.leak_K, s2, g5, g6, c_.p_bias},
+                                      p_ch, p_acc, p_l, quadratic2);
+    f.p_junction     = inlet.p_junction;
+    f.q_inlet        = inlet.q;
+    u_inlet          = inlet.u;
     f.q_accumulator = g5 * (f.p_junction - p_acc);
     f.q_low         = g6 * (f.p_junction - p_l);
     // valve pressure drops: R q + K q|q| (p_o = (R1 p_h + R3 p_ch)/(R1 + R3) when linear)
@@ -847,23 +895,7 @@ namespace rectify::system
     const Flows  f   = flows_at(y);
     const double p_a = f.p_junction;
 
-    // Mechanics.
-    J(piston_x, piston_v) = 1.0;
-    J(piston_v, piston_x) = -(c_.k_eff + c_.k_f) / c_.m_eff;
-    J(piston_v, piston_v) = -(c_.b_f + c_.b_eff) / c_.m_eff;
-    J(piston_v, fluid_x)  = c_.k_f / c_.m_eff;
-    J(piston_v, fluid_v)  = c_.b_f / c_.m_eff;
-    J(fluid_x, fluid_v)   = 1.0;
-    J(fluid_v, piston_x)  = c_.k_f / c_.m_f;
-    J(fluid_v, piston_v)  = c_.b_f / c_.m_f;
-    J(fluid_v, fluid_x)   = -c_.k_f / c_.m_f;
-    J(fluid_v, fluid_v)   = -c_.b_f / c_.m_f;
-    J(fluid_v, chamber_p) = -c_.A_pi / c_.m_f;
-    J(actuator_x, actuator_v) = 1.0;
-    J(actuator_v, actuator_x) = -c_.k_l / c_.m_l;
-    J(actuator_v, actuator_v) = -c_.b_l / c_.m_l;
-    J(actuator_v, high_p)     = c_.A_po / c_.m_l;
-    J(actuator_v, low_p)      = -c_.A_po / c_.m_l;
+    mechanics_jacobian(c_, J);
 
     // Flow gradients. Columns: the four pressures and the two reed openings.
     // dp_a/dp_ch = g24/G etc.; g13, g24 depend on the reed openings through R1, R2.
