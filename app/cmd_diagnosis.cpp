@@ -109,20 +109,20 @@ namespace rectify::app
     void print_answer(const diagnosis::DiagnosisResult &result, const std::filesystem::path &out,
                       const std::string &case_name)
     {
-      std::printf("effect: %s", result.rounds.front().effect.c_str());
+      std::printf("effect: %s", result.rounds.front().effect.value_or("none").c_str());
       for (std::size_t k = 1; k < result.rounds.size(); ++k)
-        std::printf(", then %s", result.rounds[k].effect.c_str());
+        std::printf(", then %s", result.rounds[k].effect.value_or("none").c_str());
       std::printf("\n%s\n", diagnosis::decision_words(result.rounds.front()).c_str());
       std::printf("verdict: %s. %s\n", diagnosis::to_string(result.verdict).c_str(),
                   diagnosis::verdict_words(result).c_str());
-      if (!result.rounds.front().uncertainty_sentence.empty())
-        std::printf("parameters: %s\n", result.rounds.front().uncertainty_sentence.c_str());
+      if (const auto words = diagnosis::uncertainty_words(result.rounds.front()); !words.empty())
+        std::printf("parameters: %s\n", words.c_str());
       for (const auto &rc : result.runs)
         std::printf("  %s: start %s, %zu outlier(s) replaced\n", rc.run.source.c_str(),
                     diagnosis::to_string(rc.start).c_str(), rc.outliers.size());
       for (const auto &run : result.remaining_before)
         for (const auto &s : run)
-          std::printf("  before: %s\n", s.description.c_str());
+          std::printf("  before: %s\n", diagnosis::residual_words(s).c_str());
       std::printf("residual (RMS in units of each signal's noise, all signals): %.4g before, %.4g after (%.1f %% "
                   "smaller)\n",
                   result.residual_before.at("overall"), result.residual_after.at("overall"),

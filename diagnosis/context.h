@@ -15,6 +15,7 @@
 #include "diagnosis/results.h"
 #include "maps/resistance_map.h"
 #include "diagnosis/kept_fits.h"
+#include "diagnosis/words.h"
 
 namespace rectify::diagnosis
 {
@@ -67,13 +68,13 @@ namespace rectify::diagnosis
       std::snprintf(buf, sizeof buf, "fitted %-18s BIC %.6g, held-out RMS %.4g, %d runs of the model, %.1f s",
                     c.effect.c_str(), c.bic, c.rms_heldout, c.evaluations, c.wall_time_s);
       std::string line = buf;
-      if (!c.search_note.empty())
-        line += "; " + c.search_note;
-      if (!c.ringing_note.empty())
+      if (const auto search = search_words(c); !search.empty())
+        line += "; " + search;
+      if (const auto ringing = ringing_words(c); !ringing.empty())
         {
           std::snprintf(buf, sizeof buf, "; ringing starts (%d of the runs, over 3-6 cycles, %.1f s): ",
                         c.ringing_runs, c.ringing_time_s);
-          line += buf + c.ringing_note;
+          line += buf + ringing;
         }
       if (kept)
         line += " (kept by the interrupted run: not fitted again)";

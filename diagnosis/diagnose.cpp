@@ -189,14 +189,15 @@ namespace rectify::diagnosis
       std::vector<BaselineParameter> out;
       for (std::size_t j = 0; j < ev.base.uncertain.size(); ++j)
         if (const auto &q = ev.base.uncertain[j]; q.off_at_zero && !(ev.base.real_value(q.table, q.key) > 0.0))
-          out.push_back(baseline_parameter(ev.base, q, 0.0, 0.0, false,
-                                           "left out until an effect is named, then tried on with it"));
+          {
+            out.push_back(baseline_parameter(ev.base, q, 0.0, 0.0, false));
+            out.back().left_out = true;
+          }
         else if (const auto why = inert_reason(ev.base, q.table, q.key); !why.empty())
-          out.push_back(baseline_parameter(ev.base, q, ev.held[j], 0.0, false,
-                                           "held at the case's value: " + why +
-                                             "; freed with a named effect that makes it act, where the "
-                                             "data determine it",
-                                           false));
+          {
+            out.push_back(baseline_parameter(ev.base, q, ev.held[j], 0.0, false, false));
+            out.back().inert = why;
+          }
       return out;
     }
 
@@ -396,7 +397,7 @@ namespace rectify::diagnosis
       for (std::size_t r = 0; r < runs.size(); ++r)
         {
           const auto L = localise(runs[r].run, calibrated[r], runs[r].setup.frequency_Hz, runs[r].scales);
-          const auto v = L.numbers[L.dominant_signal]["rms_normalised"].get<double>();
+          const auto v = L.signals.at(L.dominant_signal).rms_normalised;
           if (v > worst)
             {
               worst    = v;
@@ -527,7 +528,7 @@ namespace rectify::diagnosis
     /// nothing was named.
     void Round::end_judging(int look)
     {
-      if (look == 1 && rr_.effect == "none") // not named with them either: as before the try
+      if (look == 1 && !rr_.effect) // not named with them either: as before the try
         {
           const std::size_t k = judged_.front();
           fitted_[0]          = *saved_none_;
@@ -538,7 +539,7 @@ namespace rectify::diagnosis
         }
       else if (look == 1)
         rr_.near_miss.named = true;
-      if (rr_.effect == "none")
+      if (!rr_.effect)
         {
           const auto &none = fitted_[0];
           rr_.values       = {};
@@ -575,7 +576,7 @@ namespace rectify::diagnosis
             const RoundResult rr = Round(x_, round).run();
             x_.result.rounds.push_back(rr);
             start_next_round_from(rr);
-            if (rr.effect == "none")
+            if (!rr.effect)
               break;
           }
         x_.result.final_parameters     = x_.base;
@@ -667,11 +668,11 @@ namespace rectify::diagnosis
       for (const auto &q : base.uncertain)
         if (rr.baseline.count(q.name()))
           *base.real_field(q.table, q.key) = rr.baseline.at(q.name());
-      if (rr.effect == "none")
+      if (!rr.effect)
         return;
-      const auto e = find_effect(rr.effect);
+      const auto e = find_effect(*rr.effect);
       e->apply(rr.values, base);
-      x_.named.push_back(rr.effect);
+      x_.named.push_back(*rr.effect);
       std::erase_if(base.uncertain, [&](const system::UncertainParameter &q) { return e->sets(q.table, q.key); });
     }
 
@@ -728,14 +729,14 @@ namespace rectify::diagnosis
                                                                      runs[r].setup.frequency_Hz, runs[r].swings,
                                                                      runs[r].scales, runs[r].n_skip));
         }
-      const std::string named_effect = result.rounds.front().effect;
-      result.verdict                 = verdict_of(named_effect != "none", after, floor_units);
+      const bool named   = result.rounds.front().effect.has_value();
+      result.verdict     = verdict_of(named, after, floor_units);
       result.floor_units             = floor_units;
       // Nothing named, but the calibrated baseline moved a quantity a
       // candidate shares with it (the high side's compliance: a longer oil
       // column or a soft seal) beyond what the case holds: the record cannot
       // tell the two apart
-      if (named_effect != "none")
+      if (named)
         return;
       result.absorbed_by_baseline =
         absorbed_by_baseline(x_.library, x_.base_in, result.final_parameters, x_.options.absorbed_factor);

@@ -133,7 +133,7 @@ namespace rectify::diagnosis
       if (!ringing_)
         return;
       const auto began = Clock::now();
-      for (const auto &r : ringing_start(ev_, short_runs_, c_.ringing_note))
+      for (const auto &r : ringing_start(ev_, short_runs_, c_.ringing.emplace()))
         {
           add_start(r, fine_step(r));
           grid_.back().from_ringing = true;
@@ -228,15 +228,8 @@ namespace rectify::diagnosis
       const double restart   = restart_closure * ev_.options.min_gap_closed;
       if (!(closed < restart && reachable < ev_.options.min_gap_closed))
         return;
-      max_attempts_ = 1;
-      char buf[320];
-      std::snprintf(buf, sizeof buf,
-                    "not restarted: its first searches close %.0f %% of the gap above the noise that none "
-                    "leaves, %.0f %% if two more gained as much (%.0f %% needed to be restarted, %.0f %% "
-                    "to be named)",
-                    std::max(0.0, 100 * closed), std::max(0.0, 100 * reachable), 100 * restart,
-                    100 * ev_.options.min_gap_closed);
-      c_.search_note = buf;
+      max_attempts_    = 1;
+      c_.not_restarted = SearchStop{closed, reachable, restart, ev_.options.min_gap_closed};
     }
 
     /// Each search within restart_reach of the best restarted (smaller first

@@ -81,7 +81,17 @@ namespace rectify::diagnosis
     {
       std::vector<bool>        active; ///< per column: still free
       std::vector<double>      sd;     ///< standard error in the [0, 1] position
-      std::vector<std::string> note;   ///< why held, strongest correlation
+      /// strongest correlation (|r| > 0.9, else 0) while it was free, and with which column
+      std::vector<double>      correlation;
+      std::vector<std::string> correlated_with;
+
+      /// Column j's standing as judged: its correlation and whether held.
+      void judged(BaselineParameter &b, std::size_t j) const
+      {
+        b.correlation       = correlation[j];
+        b.correlated_with   = correlated_with[j];
+        b.held_undetermined = !active[j];
+      }
     };
 
     /// Which parameters (J's columns, named `names`) the data determine:
@@ -93,7 +103,8 @@ namespace rectify::diagnosis
                                  const std::vector<bool> &holdable, double limit)
     {
       const std::size_t m = static_cast<std::size_t>(J.cols());
-      Determined        d{std::vector<bool>(m, true), std::vector<double>(m, 0.0), std::vector<std::string>(m)};
+      Determined        d{std::vector<bool>(m, true), std::vector<double>(m, 0.0), std::vector<double>(m, 0.0),
+                   std::vector<std::string>(m)};
       for (;;)
         {
           std::vector<Eigen::Index> cols;
@@ -131,13 +142,9 @@ namespace rectify::diagnosis
                     best = corr(c, e);
                     with = static_cast<std::size_t>(cols[e]);
                   }
-              d.note[j].clear();
-              if (std::abs(best) > 0.9)
-                {
-                  char buf[160];
-                  std::snprintf(buf, sizeof buf, "correlated %.3f with %s", best, names[with].c_str());
-                  d.note[j] = buf;
-                }
+              const bool strong    = std::abs(best) > 0.9;
+              d.correlation[j]     = strong ? best : 0.0;
+              d.correlated_with[j] = strong ? names[with] : std::string();
               if (holdable[j] && d.sd[j] > worst_sd)
                 {
                   worst_sd = d.sd[j];
@@ -162,27 +169,18 @@ namespace rectify::diagnosis
           if (!(worst_sd > limit) || worst == m)
             break;
           d.active[worst] = false;
-          char buf[200];
-          std::snprintf(buf, sizeof buf, "held at the case's value: standard error %.2g of its range%s%s",
-                        d.sd[worst], d.note[worst].empty() ? "" : ", ", d.note[worst].c_str());
-          d.note[worst] = buf;
         }
       return d;
     }
 
-    /// `note`, and where the fit at position `unit` (of the declared range)
-    /// sits on one of its ends, that too: the data ask for a value beyond
-    /// it, which a missing effect does (a seal's compliance taken by the
-    /// oil column) as well as a range declared too narrow.
-    std::string with_bound_note(const std::string &note, double unit)
+    /// Where a fit at position `unit` (of the declared range) sits on one
+    /// of its ends: the data ask for a value beyond it, which a missing
+    /// effect does (a seal's compliance taken by the oil column) as well as
+    /// a range declared too narrow. -1 the lower, +1 the upper, else 0.
+    int end_of_range(double unit)
     {
       constexpr double at_end = 1e-3; // of the range
-      const char      *end    = unit >= 1.0 - at_end ? "upper" : unit <= at_end ? "lower" : nullptr;
-      if (!end)
-        return note;
-      return (note.empty() ? "" : note + "; ") + "at the " + end +
-             " end of its range: the data ask for a value beyond it (a missing effect can pull it there, or "
-             "the range is too narrow)";
+      return unit >= 1.0 - at_end ? 1 : unit <= at_end ? -1 : 0;
     }
   } // namespace
 
@@ -191,8 +189,7 @@ namespace rectify::diagnosis
   /// the range it sits on is said too; where it is the case's value (held
   /// or just freed: `fitted` false), not.
   BaselineParameter baseline_parameter(const system::SystemParameters &base, const system::UncertainParameter &q,
-                                       double unit, double sd_unit, bool identifiable, const std::string &note,
-                                       bool fitted)
+                                       double unit, double sd_unit, bool identifiable, bool fitted)
   {
     BaselineParameter b;
     b.name         = q.name();
@@ -203,9 +200,7 @@ namespace rectify::diagnosis
     b.sd_unit      = sd_unit;
     b.identifiable = identifiable;
     // off (the case's 0) is not an end the data push against
-    b.note = b.value == 0.0 ? (note.empty() ? "" : note + "; ") + "off, as the case has it" :
-             fitted         ? with_bound_note(note, unit) :
-                              note;
+    b.at_end = b.value != 0.0 && fitted ? end_of_range(unit) : 0;
     return b;
   }
 
@@ -235,7 +230,8 @@ namespace rectify::diagnosis
       {
         const std::size_t q_index = ev.free[j];
         const auto       &q       = base.uncertain[q_index];
-        const auto        b       = baseline_parameter(base, q, u0[j], d.sd[j], d.active[j], d.note[j]);
+        auto              b       = baseline_parameter(base, q, u0[j], d.sd[j], d.active[j]);
+        d.judged(b, j);
         out.push_back(b);
         // held: at the case's value (the prior), not at this fit, which a
         // missing effect may have pulled anywhere
@@ -254,7 +250,8 @@ namespace rectify::diagnosis
     g.upper        = 1.0 + ev.options.gain_range;
     g.sd_unit      = d.sd[m - 1];
     g.identifiable = d.active[m - 1];
-    g.note         = with_bound_note(d.note[m - 1], u0[m - 1]);
+    g.at_end       = end_of_range(u0[m - 1]);
+    d.judged(g, m - 1);
     out.push_back(g);
     ev.free = still_free;
     start.push_back(u0[m - 1]); // the gain is always fitted: held ones only lose their freedom
@@ -333,7 +330,8 @@ namespace rectify::diagnosis
         if (was_free[j])
           continue;
         // where it is freed is the value it was held at, not a fit
-        freed.push_back(baseline_parameter(base, base.uncertain[j], w[j], d.sd[k], true, d.note[k], false));
+        freed.push_back(baseline_parameter(base, base.uncertain[j], w[j], d.sd[k], true, false));
+        d.judged(freed.back(), k);
         freed.back().effect_shape = effect_shape;
       }
     un.push_back(u.back());
@@ -388,12 +386,8 @@ namespace rectify::diagnosis
             // nothing above the noise left for it to explain: a BIC gain
             // there is the noise's own structure, and its tries would be
             // the longest step of a loaded record
-            char buf[160];
-            std::snprintf(buf, sizeof buf,
-                          "not tried: the named fit leaves no gap above the noise (training RMS %.3g noise "
-                          "units)",
-                          fitted.rms_train);
-            out.push_back(baseline_parameter(ev.base, q, 0.0, 0.0, false, buf));
+            out.push_back(baseline_parameter(ev.base, q, 0.0, 0.0, false));
+            out.back().tried = LeftOutTry{LeftOutTry::Outcome::not_tried, 0, fitted.rms_train};
             continue;
           }
         const auto started = Clock::now();
@@ -416,13 +410,12 @@ namespace rectify::diagnosis
               best = g;
           }
         const double wall = fitted.wall_time_s + seconds_since(started);
-        char         buf[200];
+        LeftOutTry   how{LeftOutTry::Outcome::failed, left_out_starts, fitted.rms_train,
+                       uncertain_from_unit(q, (static_cast<double>(best) + 0.5) / left_out_starts), tried[best].bic,
+                       fitted.bic};
         if (!tried[best].failed && tried[best].bic < fitted.bic)
           {
-            std::snprintf(buf, sizeof buf,
-                          "tried on from %d points along its range, the best from %.3g: BIC %.6g against %.6g off",
-                          left_out_starts, uncertain_from_unit(q, (static_cast<double>(best) + 0.5) / left_out_starts),
-                          tried[best].bic, fitted.bic);
+            how.outcome = LeftOutTry::Outcome::on;
             total += fitted.evaluations;
             fitted             = tried[best];
             fitted.evaluations = total;
@@ -431,21 +424,17 @@ namespace rectify::diagnosis
             ev.free            = with.free;
             ev.held[j]         = fitted.u[fitted.u.size() - 2];
             ev.nuisance_start.assign(fitted.u.begin() + static_cast<std::ptrdiff_t>(ev.n_effect()), fitted.u.end());
-            out.push_back(baseline_parameter(ev.base, q, ev.held[j], 0.0, true, buf));
+            out.push_back(baseline_parameter(ev.base, q, ev.held[j], 0.0, true));
           }
         else
           {
             fitted.evaluations += total;
             fitted.wall_time_s = wall;
-            if (tried[best].failed) // no BIC to print: every start failed to simulate
-              std::snprintf(buf, sizeof buf, "every fit with it, from %d points along its range, failed",
-                            left_out_starts);
-            else
-              std::snprintf(buf, sizeof buf,
-                            "a fit with it, from %d points along its range, scored no better (BIC %.6g against %.6g)",
-                            left_out_starts, tried[best].bic, fitted.bic);
-            out.push_back(baseline_parameter(ev.base, q, 0.0, 0.0, false, buf));
+            if (!tried[best].failed) // else every start failed to simulate
+              how.outcome = LeftOutTry::Outcome::no_better;
+            out.push_back(baseline_parameter(ev.base, q, 0.0, 0.0, false));
           }
+        out.back().tried = how;
       }
     return out;
   }

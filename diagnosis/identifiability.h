@@ -31,8 +31,7 @@ namespace rectify::diagnosis
 
   /// An [uncertain] parameter as reported, at position `unit`.
   BaselineParameter baseline_parameter(const system::SystemParameters &base, const system::UncertainParameter &q,
-                                       double unit, double sd_unit, bool identifiable, const std::string &note,
-                                       bool fitted = true);
+                                       double unit, double sd_unit, bool identifiable, bool fitted = true);
 
   /// The baseline fit's parameters the data determine; the others held
   /// (ev updated).

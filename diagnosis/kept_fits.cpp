@@ -33,6 +33,42 @@ namespace rectify::diagnosis
       return v;
     }
 
+    nlohmann::json search_to_json(const std::optional<SearchStop> &s)
+    {
+      if (!s)
+        return nullptr;
+      return {exact(s->closed), exact(s->reachable), exact(s->restart_needed), exact(s->name_needed)};
+    }
+
+    std::optional<SearchStop> search_from(const nlohmann::json &j)
+    {
+      if (j.is_null())
+        return std::nullopt;
+      return SearchStop{exact(j.at(0)), exact(j.at(1)), exact(j.at(2)), exact(j.at(3))};
+    }
+
+    nlohmann::json ringing_to_json(const std::optional<RingingLog> &r)
+    {
+      if (!r)
+        return nullptr;
+      nlohmann::json tries = nlohmann::json::array();
+      for (const auto &t : r->tries)
+        tries.push_back({exact(t.f), exact(t.grid), exact(t.lines), exact(t.lines_needed), exact(t.six), t.start});
+      return {{"no_peak", r->no_peak}, {"tries", tries}};
+    }
+
+    std::optional<RingingLog> ringing_from(const nlohmann::json &j)
+    {
+      if (j.is_null())
+        return std::nullopt;
+      RingingLog r;
+      r.no_peak = j.at("no_peak").get<bool>();
+      for (const auto &t : j.at("tries"))
+        r.tries.push_back(
+          {exact(t.at(0)), exact(t.at(1)), exact(t.at(2)), exact(t.at(3)), exact(t.at(4)), t.at(5).get<bool>()});
+      return r;
+    }
+
     nlohmann::json kept_fit(int round, const CandidateResult &c)
     {
       nlohmann::json values = nlohmann::json::array(), u = nlohmann::json::array(),
@@ -60,8 +96,8 @@ namespace rectify::diagnosis
               {"wall_time_s", exact(c.wall_time_s)},
               {"failed", c.failed},
               {"message", c.message},
-              {"search_note", c.search_note},
-              {"ringing_note", c.ringing_note},
+              {"not_restarted", search_to_json(c.not_restarted)},
+              {"ringing", ringing_to_json(c.ringing)},
               {"ringing_runs", c.ringing_runs},
               {"ringing_time_s", exact(c.ringing_time_s)}};
     }
@@ -88,8 +124,8 @@ namespace rectify::diagnosis
       c.wall_time_s    = exact(j.at("wall_time_s"));
       c.failed         = j.at("failed").get<bool>();
       c.message        = j.at("message").get<std::string>();
-      c.search_note    = j.at("search_note").get<std::string>();
-      c.ringing_note   = j.at("ringing_note").get<std::string>();
+      c.not_restarted  = search_from(j.at("not_restarted"));
+      c.ringing        = ringing_from(j.at("ringing"));
       c.ringing_runs   = j.at("ringing_runs").get<int>();
       c.ringing_time_s = exact(j.at("ringing_time_s"));
       return c;

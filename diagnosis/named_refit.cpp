@@ -49,13 +49,12 @@ namespace rectify::diagnosis
           free_shape(left);
         try
           {
-            const std::string moves_words = profile();
-            hold_partner(moves_words);
+            profile();
+            hold_partner();
           }
         catch (const std::exception &e)
           {
-            rr_.uncertainty_sentence =
-              std::string("the parameters' standard errors could not be computed: ") + e.what();
+            rr_.uncertainty_error = e.what();
           }
       }
 
@@ -64,13 +63,12 @@ namespace rectify::diagnosis
       double                refine(const std::vector<BaselineParameter> &placed, const char *what);
       double                moved_by(const CandidateResult &r) const;
       void                  free_shape(double left);
-      std::string           profile();
-      void                  hold_partner(const std::string &moves_words);
+      void                  profile();
+      void                  hold_partner();
       std::optional<double> keeping_sum(const Evaluator &held, const std::vector<double> &uh, std::size_t j,
                                         double w) const;
       void                  refit_held(const Evaluator &held_ev, const std::vector<double> &uh, const HeldPartner &p,
-                                       nlohmann::json &h, const std::string &moves_words);
-      void                  describe_held(const HeldPartner &p, const nlohmann::json &h);
+                                       nlohmann::json &h);
 
       Context            &x_;
       RoundResult        &rr_;
@@ -101,9 +99,7 @@ namespace rectify::diagnosis
           choose_start(ev_.parameters(u_), x_.map, runs, options, x_.cores);
           for (std::size_t r = 0; r < runs.size(); ++r)
             if (runs[r].start != was[r]) // a later round appends its own
-              runs[r].start_revised +=
-                (runs[r].start_revised.empty() ? to_string(was[r]) + " with the case's baseline" : "") + ", " +
-                to_string(runs[r].start) + " with " + effect_ + "'s fit";
+              runs[r].start_revisions.push_back({was[r], runs[r].start, effect_});
         }
       settle(ev_.parameters(u_), x_.map, runs, options, x_.cores);
     }
@@ -141,7 +137,7 @@ namespace rectify::diagnosis
               rr_.left_out           = calibrate_left_out(ev_, r, refined, x_.cores);
               turned_on              = ev_.free.size() > free_before;
               for (const auto &b : rr_.left_out)
-                x_.say("%s: %s, %.1f s", b.name.c_str(), b.note.c_str(), seconds_since(tried_at));
+                x_.say("%s: %s, %.1f s", b.name.c_str(), standing_words(b).c_str(), seconds_since(tried_at));
             }
           u_             = r.u;
           rr_.values     = r.values;
@@ -196,9 +192,9 @@ namespace rectify::diagnosis
     /// The parameters' standard errors and profiles; a side of a profile
     /// that fits clearly better than the fit (the valley curves: the fit
     /// stopped in a side basin) becomes the fit, refitted from there and
-    /// profiled again, at most max_profile_moves times. Returns the moves
-    /// in words (said before the standard errors).
-    std::string NamedRefit::profile()
+    /// profiled again, at most max_profile_moves times (each move kept in
+    /// the round's profile_moves).
+    void NamedRefit::profile()
     {
       for (int move = 0;; ++move)
         {
@@ -229,16 +225,6 @@ namespace rectify::diagnosis
           rr_.profile_moves.push_back(
             {{"value", better->value}, {"training_residual", better->rms}, {"evidence", better->evidence}});
         }
-      if (rr_.profile_moves.empty())
-        return "";
-      char words[256];
-      std::snprintf(words, sizeof words,
-                    "the fit moved along its profile %zu time(s) to a side that fitted better "
-                    "(the last at %.4g, evidence %.1f) and was refitted there; ",
-                    rr_.profile_moves.size(), rr_.profile_moves.back()["value"].get<double>(),
-                    rr_.profile_moves.back()["evidence"].get<double>());
-      rr_.uncertainty_sentence = words + rr_.uncertainty_sentence;
-      return words;
     }
 
     /// A parameter the record does not determine, whose combined quantity
@@ -249,7 +235,7 @@ namespace rectify::diagnosis
     /// that fits as well as the split (evidence within the naming's
     /// threshold); the effect's values over that parameter's declared range
     /// are reported beside it.
-    void NamedRefit::hold_partner(const std::string &moves_words)
+    void NamedRefit::hold_partner()
     {
       const auto *comb = ev_.effect ? ev_.effect->combination() : nullptr;
       if (!(comb && rr_.combined && rr_.combined->determined && rr_.uncertainty.size() == 1 &&
@@ -303,8 +289,7 @@ namespace rectify::diagnosis
         {"range", {q.lower, q.upper}},
         {"kept", false}};
       if (p.from)
-        refit_held(held_ev, uh, p, h, moves_words);
-      describe_held(p, h);
+        refit_held(held_ev, uh, p, h);
       rr_.held_partner = h;
     }
 
@@ -344,7 +329,7 @@ namespace rectify::diagnosis
     /// the position that keeps the sum; kept where it fits as well as the
     /// split (both in the scales the refit left), else the split restored.
     void NamedRefit::refit_held(const Evaluator &held_ev, const std::vector<double> &uh, const HeldPartner &p,
-                                nlohmann::json &h, const std::string &moves_words)
+                                nlohmann::json &h)
     {
       const auto       &spec        = ev_.effect->parameters().front();
       const auto        began       = Clock::now();
@@ -380,7 +365,6 @@ namespace rectify::diagnosis
           int        runs_here = 0;
           const auto profiled  = Clock::now();
           effect_uncertainty(ev_, u_, x_.cores, rr_, runs_here);
-          rr_.uncertainty_sentence = moves_words + rr_.uncertainty_sentence;
           x_.say("%s's standard errors and profiles with %s held: %d runs, %.1f s", effect_.c_str(), p.name.c_str(),
                  runs_here, seconds_since(profiled));
         }
@@ -397,45 +381,6 @@ namespace rectify::diagnosis
       h["kept"] = keep;
     }
 
-    /// The held partner in words, appended to the uncertainty's sentence.
-    void NamedRefit::describe_held(const HeldPartner &p, const nlohmann::json &h)
-    {
-      const auto *comb  = ev_.effect->combination();
-      const auto &spec  = ev_.effect->parameters().front();
-      const auto &q     = ev_.base.uncertain[p.j];
-      const auto  bound = [&](const std::optional<double> &x) {
-        char b[40];
-        std::snprintf(b, sizeof b, "%.3g", x ? spec.from_unit(*x) : 0.0);
-        return x ? std::string(b) : std::string("none");
-      };
-      const bool  kept = h["kept"].get<bool>();
-      const auto &now  = rr_.uncertainty.front();
-      const auto  evidence = [&] {
-        return std::to_string(static_cast<int>(std::lround(h["evidence"].get<double>())));
-      };
-      std::string how;
-      if (!p.from)
-        how = "no value of the effect keeps the sum there: the split kept";
-      else if (h.contains("refit_failed"))
-        how = "its refit failed: the split kept";
-      else if (!kept)
-        how = "fits worse (evidence " + evidence() + "): the split kept";
-      else
-        how = std::string(h["evidence"].get<double>() < -x_.options.bic_threshold ? "fits better" : "fits as well") +
-              " (evidence " + evidence() + "): kept" +
-              (now.determined ? "; there its profile determines it" : "; still not determined");
-      char words[900];
-      std::snprintf(words, sizeof words,
-                    "; the fit's split (%s %.4g, %s %.3g) left %s not determined by the record, "
-                    "only %s: with %s held at the case's %.4g (not traded against the effect) "
-                    "%s = %.3g %s; over %s's declared range (%.4g-%.4g) %s would be %s to %s",
-                    p.name.c_str(), p.split_value, spec.key.c_str(), h["split"][spec.key].get<double>(),
-                    spec.key.c_str(), comb->name.c_str(), p.name.c_str(), p.case_value, spec.key.c_str(),
-                    h.contains("held_value") ? h["held_value"].get<double>() : std::nan(""),
-                    ("(" + how + ")").c_str(), p.name.c_str(), q.lower, q.upper, spec.key.c_str(),
-                    bound(p.range_lo).c_str(), bound(p.range_hi).c_str());
-      rr_.uncertainty_sentence += words;
-    }
   } // namespace
 
   void refine_named(Context &x, RoundResult &rr, const CandidateResult &named, Evaluator ev, bool left_out_tried)

@@ -72,21 +72,12 @@ namespace rectify::diagnosis
           better_side(*better);
         rr.uncertainty_runs = runs_;
         rr.uncertainty.clear();
-        std::string sentence;
         for (Eigen::Index i = 0; i < ne_; ++i)
-          {
-            std::string words;
-            rr.uncertainty.push_back(parameter(i, words));
-            sentence += (sentence.empty() ? "" : "; ") + words;
-          }
+          rr.uncertainty.push_back(parameter(i));
         rr.combined.reset();
         if (ev_.effect->combination())
-          {
-            std::string words;
-            rr.combined = combined(words);
-            sentence += "; " + words;
-          }
-        rr.uncertainty_sentence = sentence;
+          rr.combined = combined();
+        rr.uncertainty_error.clear();
       }
 
     private:
@@ -98,8 +89,8 @@ namespace rectify::diagnosis
         return n_eff_ * std::log(std::max(x.ssr_train, 1e-300) / std::max(ssr_, 1e-300));
       }
       void                 better_side(std::optional<BetterSide> &better) const;
-      ParameterUncertainty parameter(Eigen::Index i, std::string &words) const;
-      CombinedEstimate     combined(std::string &words) const;
+      ParameterUncertainty parameter(Eigen::Index i) const;
+      CombinedEstimate     combined() const;
 
       const Evaluator                                 &ev_;
       const std::vector<double>                       &u_;
@@ -277,9 +268,8 @@ namespace rectify::diagnosis
     /// (d / sd)^2 (the chi-square in units of the residual's variance per
     /// independent value): sd = d / sqrt(evidence) per side; a side that
     /// fits as well (evidence <= 1) says more than d.
-    ParameterUncertainty EffectUncertainty::parameter(Eigen::Index i, std::string &words) const
+    ParameterUncertainty EffectUncertainty::parameter(Eigen::Index i) const
     {
-      char                 buf[768];
       const auto          &spec = ev_.effect->parameters()[static_cast<std::size_t>(i)];
       const double         ui   = ua_[static_cast<std::size_t>(i)];
       ParameterUncertainty p;
@@ -301,8 +291,9 @@ namespace rectify::diagnosis
                 p.correlated_with = names_[static_cast<std::size_t>(j)];
               }
           }
-      p.rms_at_fit = rms_best_;
-      std::string           profile_words;
+      p.rms_at_fit      = rms_best_;
+      p.profile_step    = determined_sd_;
+      p.evidence_needed = ev_.options.bic_threshold;
       bool                  tried = false;
       std::array<double, 2> side_sd{0.0, 0.0};
       const double          inf = std::numeric_limits<double>::infinity();
@@ -313,20 +304,13 @@ namespace rectify::diagnosis
           p.profile_value[side]    = s.value;
           p.profile_rms[side]      = ok ? s.rms : std::nan("");
           p.profile_evidence[side] = ok ? s.evidence : std::nan("");
+          p.profile_tried[side]    = ok;
           if (!ok)
             continue;
           tried         = true;
           side_sd[side] = s.evidence > 1.0 ? determined_sd_ / std::sqrt(s.evidence) : inf;
           if (!(s.evidence > ev_.options.bic_threshold))
-            {
-              p.profile_determined = false;
-              std::snprintf(buf, sizeof buf,
-                            "%s%s at %.3g (%s) with the baseline refitted fits as well "
-                            "(training residual %.4g noise units against %.4g; evidence %.1f, %.0f needed)",
-                            profile_words.empty() ? "" : "; ", p.key.c_str(), s.value, side ? "higher" : "lower",
-                            s.rms, rms_best_, s.evidence, ev_.options.bic_threshold);
-              profile_words += buf;
-            }
+            p.profile_determined = false;
         }
       if (!tried) // at both bounds, or no refit possible: the local estimate alone
         side_sd = {p.local_relative_sd, p.local_relative_sd};
@@ -340,34 +324,13 @@ namespace rectify::diagnosis
       };
       p.lower = at(side_sd[0], -1.0);
       p.upper = at(side_sd[1], +1.0);
-      if (p.determined)
-        std::snprintf(buf, sizeof buf,
-                      "%s = %.3g, standard error %.2g %% (%s); %.0f %% either way with the "
-                      "baseline's uncertain parameters refitted fits worse (evidence %.0f and %.0f)",
-                      p.key.c_str(), p.value, 100 * p.relative_sd,
-                      tried ? "from its profile" : "local, from the fit's covariance", 100 * determined_sd_,
-                      p.profile_evidence[0], p.profile_evidence[1]);
-      else if (tried)
-        std::snprintf(buf, sizeof buf,
-                      "%s = %.3g is not determined by the record to %.0f %%: %s; it trades "
-                      "with %s (correlation %.2f)",
-                      p.key.c_str(), p.value, 100 * determined_sd_, profile_words.c_str(), p.correlated_with.c_str(),
-                      p.correlation);
-      else
-        std::snprintf(buf, sizeof buf,
-                      "%s = %.3g is not determined by the record to %.0f %%: standard error "
-                      "%.0f %% with the baseline's uncertain parameters within their ranges, %.0f %% with "
-                      "them known; it trades with %s (correlation %.2f)",
-                      p.key.c_str(), p.value, 100 * determined_sd_, 100 * p.relative_sd,
-                      100 * p.local_relative_sd_given_baseline, p.correlated_with.c_str(), p.correlation);
-      words = buf;
       return p;
     }
 
     /// The effect's combined quantity (Effect::Combination) at the fit and
     /// its local standard error (its gradient in the positions: the
     /// function alone, no runs).
-    CombinedEstimate EffectUncertainty::combined(std::string &words) const
+    CombinedEstimate EffectUncertainty::combined() const
     {
       const auto      *combination = ev_.effect->combination();
       CombinedEstimate e;
@@ -384,11 +347,6 @@ namespace rectify::diagnosis
         }
       e.relative_sd = std::sqrt(std::max(propagated_variance(C_, g), 0.0)) / std::max(std::abs(e.value), 1e-300);
       e.determined  = e.relative_sd <= determined_sd_;
-      char buf[768];
-      std::snprintf(buf, sizeof buf, "%s %s = %.3g, standard error %.2g %% (local; %s)",
-                    e.determined ? "the record determines" : "the record does not determine", e.name.c_str(), e.value,
-                    100 * e.relative_sd, e.meaning.c_str());
-      words = buf;
       return e;
     }
   } // namespace

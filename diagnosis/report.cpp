@@ -43,7 +43,7 @@ namespace rectify::diagnosis
     std::string named_section(const RoundResult &rr, const DiagnoseOptions &options)
     {
       std::string md;
-      const auto e = find_effect(rr.effect);
+      const auto e = find_effect(*rr.effect);
       md += e->physics() + ".\n\nExpected signature: " + e->signature() + ".\n\n";
       for (std::size_t i = 0; i < rr.values.size(); ++i)
         md += "- " + e->parameters()[i].meaning + ": `" + e->parameters()[i].key + " = " + sci(rr.values[i]) +
@@ -81,14 +81,14 @@ namespace rectify::diagnosis
                                 "no such effect, determined at this effect's settled fit"
                               : "held at the baseline fit, determined at this effect's fit") +
               " (standard error " + sci(b.sd_unit) + " of its range" +
-              (b.note.empty() ? "" : "; " + b.note) + "); refitted from the case's " + sci(b.nominal) +
+              (standing_words(b).empty() ? "" : "; " + standing_words(b)) + "); refitted from the case's " + sci(b.nominal) +
               " to " + sci(rr.baseline.count(b.name) ? rr.baseline.at(b.name) : b.value) + "\n";
       for (const auto &b : rr.left_out)
         md += "- `" + b.name + "`, which the case leaves out (0), tried on at this effect's settled fit: " +
               (b.value != 0.0 ? "on, refitted to " +
                                   sci(rr.baseline.count(b.name) ? rr.baseline.at(b.name) : b.value)
                               : std::string("off")) +
-              " (" + b.note + ")\n";
+              " (" + standing_words(b) + ")\n";
       return md;
     }
 
@@ -98,8 +98,8 @@ namespace rectify::diagnosis
     {
       std::string md;
       md += "\n## Round " + std::to_string(k + 1) + ": " +
-            (rr.effect == "none" ? std::string("no significant missing effect") : "**" + rr.effect + "**") + "\n\n";
-      if (rr.effect != "none")
+            (!rr.effect ? std::string("no significant missing effect") : "**" + *rr.effect + "**") + "\n\n";
+      if (rr.effect)
         md += named_section(rr, options);
       md += "- force gain (nuisance): " + sci(rr.force_gain) + "\n- evidence: " + decision_words(rr) + "\n\n";
       md += "| candidate | k | BIC - BIC(none) | AIC | RMS train | RMS held-out | parameters |\n|---|---|---|---|---|---|---|\n";
@@ -202,25 +202,25 @@ namespace rectify::diagnosis
     {
       std::vector<CaseEntry> entries;
       for (const auto &rr : result.rounds)
-        if (rr.effect != "none")
+        if (rr.effect)
           {
-            const auto e = find_effect(rr.effect);
-            effects_named += (effects_named.empty() ? "" : "+") + rr.effect;
+            const auto e = find_effect(*rr.effect);
+            effects_named += (effects_named.empty() ? "" : "+") + *rr.effect;
             for (std::size_t i = 0; i < rr.values.size(); ++i) // as applied (a range's end can mean off)
               {
                 const auto &spec = e->parameters()[i];
                 entries.push_back({spec.table, spec.key,
                                    format_number(result.final_parameters.real_value(spec.table, spec.key)),
-                                   "rectify diagnose: " + rr.effect + " (fitted)"});
+                                   "rectify diagnose: " + *rr.effect + " (fitted)"});
               }
             for (const auto &k : e->fixed_keys())
-              entries.push_back({k.table, k.key, k.value, "rectify diagnose: " + rr.effect});
+              entries.push_back({k.table, k.key, k.value, "rectify diagnose: " + *rr.effect});
             // a key the case declares [uncertain] that the effect now sets
             // (a second mode): its range no longer holds the effect's value
             for (const auto &q : p.uncertain)
               if (e->sets(q.table, q.key))
                 entries.push_back({"uncertain", q.name(), "",
-                                   "rectify diagnose: set by " + rr.effect + " (fitted), no longer a baseline parameter"});
+                                   "rectify diagnose: set by " + *rr.effect + " (fitted), no longer a baseline parameter"});
           }
       const bool second_mode_named = std::any_of(entries.begin(), entries.end(), [](const auto &e) {
         return e.table == "reed" && e.key == "second_mode_frequency_Hz";
@@ -361,9 +361,9 @@ namespace rectify::diagnosis
             csv += c.effect + "," + std::to_string(c.k) + "," + sci(c.bic) + "," + sci(none_bic - c.bic) + "," +
                    sci(c.aic) + "," + sci(c.rms_train) + "," + sci(c.rms_heldout) + "," + sci(c.force_gain) +
                    "," + params + "," + std::to_string(c.evaluations) + "," + sci(c.wall_time_s) + "," +
-                   (c.failed                ? "failed: " + c.message :
-                    c.search_note.empty() ? std::string() :
-                                            "\"" + c.search_note + "\"") + "\n";
+                   (c.failed               ? "failed: " + c.message :
+                    !c.not_restarted       ? std::string() :
+                                             "\"" + search_words(c) + "\"") + "\n";
         }
       write_file_atomic(out / "candidates.csv", csv);
     }
@@ -373,8 +373,8 @@ namespace rectify::diagnosis
       std::string md = "# rectify diagnose\n\nCase: `" + o.case_path + "`, scenario " + o.scenario + ".\n\n";
       md += "The reeds' second mode in the baseline: " + second_mode.text() + ".\n\n";
       md += "**Verdict: " + to_string(result.verdict) + ".** " + verdict_words(result) + ".\n\n";
-      if (!result.rounds.front().uncertainty_sentence.empty())
-        md += "Parameters: " + result.rounds.front().uncertainty_sentence + ".\n\n";
+      if (const auto words = uncertainty_words(result.rounds.front()); !words.empty())
+        md += "Parameters: " + words + ".\n\n";
       md += records_section() + baseline_section() + before_section();
       for (std::size_t k = 0; k < result.rounds.size(); ++k)
         md += round_section(result.rounds[k], k, o.options);
@@ -396,12 +396,12 @@ namespace rectify::diagnosis
             spikes += (spikes.empty() ? "" : "; ") + x.column + " row " + std::to_string(x.row) + " (" +
                       sci(x.noise_units) + " sd)";
           md += "| `" + rc.run.source + "` | " + to_string(rc.start) +
-                (rc.start_revised.empty() ? "" : " (" + rc.start_revised + ")") + " | " +
+                (rc.start_revisions.empty() ? "" : " (" + start_revision_words(rc) + ")") + " | " +
                 (scores.empty() ? "-" : scores) + " | " + std::to_string(rc.n_skip) +
-                (rc.settling_reason.empty() ? "" : " (" + rc.settling_reason + ")") + " | " +
+                (settling_words(rc).empty() ? "" : " (" + settling_words(rc) + ")") + " | " +
                 (spikes.empty() ? "none" : spikes) + " | " +
                 (rc.band_Hz > 0 ? "within " + format_number(rc.harmonics) + " harmonics (to " +
-                                    format_number(std::round(rc.band_Hz)) + " Hz; " + rc.band_reason + ")" :
+                                    format_number(std::round(rc.band_Hz)) + " Hz; " + band_words(rc) + ")" :
                                   std::string("every sample")) +
                 " |\n";
         }
@@ -432,7 +432,7 @@ namespace rectify::diagnosis
           for (const auto &b : result.rounds.front().baseline_check)
             md += "| " + b.name + " | " + sci(b.nominal) + " | " + sci(b.value) + " | " + sci(b.lower) + " .. " +
                   sci(b.upper) + " | " + sci(b.sd_unit) + " | " + (b.identifiable ? "yes" : "no: held") + " | " +
-                  b.note + " |\n";
+                  standing_words(b) + " |\n";
         }
       return md;
     }
@@ -447,7 +447,7 @@ namespace rectify::diagnosis
         {
           md += "Run `" + runs[r].run.source + "` (" + sci(runs[r].setup.frequency_Hz) + " Hz):\n\n";
           for (const auto &s : result.remaining_before[r])
-            md += "- " + s.description + "\n";
+            md += "- " + residual_words(s) + "\n";
           md += "\n";
         }
       for (const auto &s : trends(result.run_levels))
@@ -501,7 +501,7 @@ namespace rectify::diagnosis
         {
           md += "Run `" + runs[r].run.source + "`:\n\n";
           for (const auto &s : result.remaining[r])
-            md += "- " + s.description + "\n";
+            md += "- " + residual_words(s) + "\n";
           md += "\n";
         }
       md += "New case file: `" + case_name + "`. Overlays: `overlay-N.png`.\n";

@@ -24,45 +24,6 @@ namespace rectify::diagnosis
       return std::sqrt(var);
     }
 
-    std::string pretty(const std::string &signal)
-    {
-      if (signal == "outlet_pressure_Pa")
-        return "outlet pressure";
-      if (signal == "chamber_pressure_Pa")
-        return "chamber pressure";
-      if (signal == "outlet_valve_m")
-        return "outlet valve opening";
-      if (signal == "actuator_position_m")
-        return "actuator position";
-      if (signal == "actuator_velocity_m_per_s")
-        return "actuator velocity";
-      return signal;
-    }
-
-    /// Value in the signal's display unit, with the unit.
-    std::string in_units(const std::string &signal, double v)
-    {
-      char buf[64];
-      if (signal.ends_with("_Pa"))
-        std::snprintf(buf, sizeof buf, "%.3g MPa", v / 1e6);
-      else if (signal == "outlet_valve_m")
-        std::snprintf(buf, sizeof buf, "%.3g um", v * 1e6);
-      else if (signal == "actuator_position_m")
-        std::snprintf(buf, sizeof buf, "%.3g mm", v * 1e3);
-      else if (signal == "actuator_velocity_m_per_s")
-        std::snprintf(buf, sizeof buf, "%.3g mm/s", v * 1e3);
-      else
-        std::snprintf(buf, sizeof buf, "%.3g", v);
-      return buf;
-    }
-
-    std::string percent(double fraction)
-    {
-      char buf[32];
-      std::snprintf(buf, sizeof buf, "%.0f %%", 100 * fraction);
-      return buf;
-    }
-
     /// Cycle phase in [0, 1) at time t (record starts at phase 0: the drive's
     /// minimum for the synthesiser's sine; the rising half is the stroke).
     double phase(double t, double f) { return t * f - std::floor(t * f); }
@@ -293,141 +254,139 @@ namespace rectify::diagnosis
     return std::sqrt(sum / static_cast<double>(std::max<std::size_t>(n, 1)));
   }
 
+  namespace
+  {
+    /// Where in time a signal's residual (model - data) lies: by half of
+    /// the cycle and third of the record, and its mean.
+    void shape_in_time(const MeasuredRun &run, const std::vector<double> &values, const std::vector<double> &data,
+                       double f, SignalShape &s)
+    {
+      const double t0 = run.time_s.front(), duration = run.time_s.back() - t0;
+      const double phase0 = drive_phase_at_start(run, f);
+      const std::size_t n = values.size();
+      double      e_half[2] = {0, 0}, e_third[3] = {0, 0, 0}, bias = 0;
+      std::size_t n_third[3] = {0, 0, 0};
+      for (std::size_t i = 0; i < n; ++i)
+        {
+          const double t  = run.time_s[i] - t0;
+          const double e  = values[i] - data[i];
+          const int    h  = phase(t + phase0 / f, f) < 0.5 ? 0 : 1;
+          const int    th = std::min(2, static_cast<int>(3.0 * t / std::max(duration, 1e-300)));
+          e_half[h] += e * e;
+          e_third[th] += e * e;
+          ++n_third[th];
+          bias += e / static_cast<double>(n);
+        }
+      const double total = e_half[0] + e_half[1];
+      s.bias = bias;
+      for (int h = 0; h < 2; ++h)
+        s.half_fraction[h] = total > 0 ? e_half[h] / total : 0.0;
+      for (int th = 0; th < 3; ++th)
+        s.rms_by_third[th] = std::sqrt(e_third[th] / std::max<double>(1, static_cast<double>(n_third[th])));
+    }
+
+    /// Over the whole cycles of the second half of the record, in one pass:
+    /// the residual's harmonics and each cycle's swing (max - min) in data
+    /// and model, averaged.
+    void shape_in_frequency(const MeasuredRun &run, const std::vector<double> &values,
+                            const std::vector<double> &data, double f, SignalShape &s)
+    {
+      const double t0 = run.time_s.front(), T = 1.0 / f;
+      const auto   n_cycles = static_cast<std::size_t>(std::floor((run.time_s.back() - t0) / T + 1e-9));
+      const std::size_t c_from = n_cycles / 2, c_to = n_cycles;
+      std::vector<std::complex<double>> c(11);
+      double              energy = 0;
+      std::size_t         m      = 0;
+      std::vector<double> dmin(c_to - c_from, 1e300), dmax(c_to - c_from, -1e300);
+      std::vector<double> mmin(dmin), mmax(dmax);
+      for (std::size_t i = 0; i < values.size(); ++i)
+        {
+          const double t = run.time_s[i] - t0;
+          if (t < static_cast<double>(c_from) * T || t >= static_cast<double>(c_to) * T)
+            continue;
+          const auto   k = std::min(c_to - 1, static_cast<std::size_t>(t / T)) - c_from;
+          const double e = values[i] - data[i];
+          ++m;
+          energy += e * e;
+          for (int h = 0; h <= 10; ++h)
+            c[h] += e * std::polar(1.0, -2 * std::numbers::pi * h * f * t);
+          dmin[k] = std::min(dmin[k], data[i]);
+          dmax[k] = std::max(dmax[k], data[i]);
+          mmin[k] = std::min(mmin[k], values[i]);
+          mmax[k] = std::max(mmax[k], values[i]);
+        }
+      auto &amp = s.harmonic_amplitudes; // 0: mean, 1..10 harmonics
+      amp.assign(11, 0.0);
+      if (m > 0)
+        {
+          energy /= static_cast<double>(m);
+          for (int h = 0; h <= 10; ++h)
+            amp[h] = (h == 0 ? 1.0 : 2.0) * std::abs(c[h]) / static_cast<double>(m);
+        }
+      double harmonic_energy = amp[0] * amp[0];
+      for (int h = 1; h <= 10; ++h)
+        harmonic_energy += 0.5 * amp[h] * amp[h];
+      s.dominant_harmonic = 1;
+      for (int h = 1; h <= 10; ++h)
+        if (amp[h] > amp[s.dominant_harmonic])
+          s.dominant_harmonic = h;
+      s.above_10th = energy > 0 ? std::max(0.0, 1.0 - harmonic_energy / energy) : 0.0;
+      std::size_t n_sw = 0;
+      for (std::size_t k = 0; k < dmin.size(); ++k)
+        if (dmax[k] >= dmin[k])
+          {
+            s.swing_data += dmax[k] - dmin[k];
+            s.swing_model += mmax[k] - mmin[k];
+            ++n_sw;
+          }
+      if (n_sw > 0)
+        {
+          s.swing_data /= static_cast<double>(n_sw);
+          s.swing_model /= static_cast<double>(n_sw);
+        }
+    }
+  } // namespace
+
+  nlohmann::json Localisation::numbers() const
+  {
+    nlohmann::json out = nlohmann::json::object();
+    for (const auto &[name, s] : signals)
+      out[name] = {{"rms_normalised", s.rms_normalised},
+                   {"rms", s.rms},
+                   {"mean_model_minus_data", s.bias},
+                   {"pressurising_fraction", s.half_fraction[0]},
+                   {"refill_fraction", s.half_fraction[1]},
+                   {"harmonic_amplitudes", s.harmonic_amplitudes},
+                   {"dominant_harmonic", s.dominant_harmonic},
+                   {"energy_above_10th_harmonic_fraction", s.above_10th},
+                   {"rms_by_third_of_record", s.rms_by_third},
+                   {"cycle_swing_data", s.swing_data},
+                   {"cycle_swing_model", s.swing_model}};
+    return out;
+  }
+
   Localisation localise(const MeasuredRun &run, const Signals &model, double f,
                         const std::map<std::string, double> &scales)
   {
     Localisation L;
-    L.numbers        = nlohmann::json::object();
-    const auto norms = residual_norms(run, model, scales);
-    double     worst = -1;
+    const auto   norms = residual_norms(run, model, scales);
+    double       worst = -1;
     for (const auto &[name, v] : norms)
       if (name != "overall" && v > worst)
         {
           worst             = v;
           L.dominant_signal = name;
         }
-    const double t0 = run.time_s.front(), T = 1.0 / f;
-    const double duration = run.time_s.back() - t0;
-    const double phase0   = drive_phase_at_start(run, f);
-    const auto   n_cycles = static_cast<std::size_t>(std::floor(duration / T + 1e-9));
-
     for (const auto &[name, values] : model)
       {
-        const auto  &data  = run.signal(name);
-        const double scale = scales.at(name);
-        const std::size_t n = values.size();
-        // cycle halves, thirds of the record, mean offset
-        double      e_half[2] = {0, 0}, e_third[3] = {0, 0, 0}, bias = 0;
-        std::size_t n_half[2] = {0, 0}, n_third[3] = {0, 0, 0};
-        for (std::size_t i = 0; i < n; ++i)
-          {
-            const double t  = run.time_s[i] - t0;
-            const double e  = values[i] - data[i];
-            const int    h  = phase(t + phase0 / f, f) < 0.5 ? 0 : 1;
-            const int    th = std::min(2, static_cast<int>(3.0 * t / std::max(duration, 1e-300)));
-            e_half[h] += e * e;
-            ++n_half[h];
-            e_third[th] += e * e;
-            ++n_third[th];
-            bias += e / static_cast<double>(n);
-          }
-        const double total = e_half[0] + e_half[1];
-        // over the whole cycles of the second half of the record, in one
-        // pass: the residual's harmonics and each cycle's swing (max - min)
-        // in data and model
-        const std::size_t c_from = n_cycles / 2, c_to = n_cycles;
-        std::vector<std::complex<double>> c(11);
-        double              energy = 0;
-        std::size_t         m      = 0;
-        std::vector<double> dmin(c_to - c_from, 1e300), dmax(c_to - c_from, -1e300);
-        std::vector<double> mmin(dmin), mmax(dmax);
-        for (std::size_t i = 0; i < n; ++i)
-          {
-            const double t = run.time_s[i] - t0;
-            if (t < static_cast<double>(c_from) * T || t >= static_cast<double>(c_to) * T)
-              continue;
-            const auto   k = std::min(c_to - 1, static_cast<std::size_t>(t / T)) - c_from;
-            const double e = values[i] - data[i];
-            ++m;
-            energy += e * e;
-            for (int h = 0; h <= 10; ++h)
-              c[h] += e * std::polar(1.0, -2 * std::numbers::pi * h * f * t);
-            dmin[k] = std::min(dmin[k], data[i]);
-            dmax[k] = std::max(dmax[k], data[i]);
-            mmin[k] = std::min(mmin[k], values[i]);
-            mmax[k] = std::max(mmax[k], values[i]);
-          }
-        std::vector<double> amp(11, 0.0); // 0: mean, 1..10 harmonics
-        if (m > 0)
-          {
-            energy /= static_cast<double>(m);
-            for (int h = 0; h <= 10; ++h)
-              amp[h] = (h == 0 ? 1.0 : 2.0) * std::abs(c[h]) / static_cast<double>(m);
-          }
-        double harmonic_energy = amp[0] * amp[0];
-        for (int h = 1; h <= 10; ++h)
-          harmonic_energy += 0.5 * amp[h] * amp[h];
-        int top = 1;
-        for (int h = 1; h <= 10; ++h)
-          if (amp[h] > amp[top])
-            top = h;
-        const double above = energy > 0 ? std::max(0.0, 1.0 - harmonic_energy / energy) : 0.0;
-        double      swing_data = 0, swing_model = 0;
-        std::size_t n_sw = 0;
-        for (std::size_t k = 0; k < dmin.size(); ++k)
-          if (dmax[k] >= dmin[k])
-            {
-              swing_data += dmax[k] - dmin[k];
-              swing_model += mmax[k] - mmin[k];
-              ++n_sw;
-            }
-        if (n_sw > 0)
-          {
-            swing_data /= static_cast<double>(n_sw);
-            swing_model /= static_cast<double>(n_sw);
-          }
-        const double rms_third[3] = {std::sqrt(e_third[0] / std::max<double>(1, n_third[0])),
-                                     std::sqrt(e_third[1] / std::max<double>(1, n_third[1])),
-                                     std::sqrt(e_third[2] / std::max<double>(1, n_third[2]))};
-        L.numbers[name] = {
-          {"rms_normalised", norms.at(name)},
-          {"rms", norms.at(name) * scale},
-          {"mean_model_minus_data", bias},
-          {"pressurising_fraction", total > 0 ? e_half[0] / total : 0.0},
-          {"refill_fraction", total > 0 ? e_half[1] / total : 0.0},
-          {"harmonic_amplitudes", amp},
-          {"dominant_harmonic", top},
-          {"energy_above_10th_harmonic_fraction", above},
-          {"rms_by_third_of_record", {rms_third[0], rms_third[1], rms_third[2]}},
-          {"cycle_swing_data", swing_data},
-          {"cycle_swing_model", swing_model}};
+        auto &s          = L.signals[name];
+        s.rms_normalised = norms.at(name);
+        s.rms            = norms.at(name) * scales.at(name);
+        shape_in_time(run, values, run.signal(name), f, s);
+        shape_in_frequency(run, values, run.signal(name), f, s);
         if (name == L.dominant_signal)
-          L.dominant_half = e_half[0] >= e_half[1] ? "pressurising" : "refill";
-
-        std::string s = "residual " + in_units(name, norms.at(name) * scale) +
-                        " RMS (" + percent(norms.at(name)) + " of its swing), " +
-                        percent(total > 0 ? std::max(e_half[0], e_half[1]) / total : 0) +
-                        " of it in the " + (e_half[0] >= e_half[1] ? "pressurising stroke" : "refill") +
-                        "; model " + (bias > 0 ? "above" : "below") + " the data by " +
-                        in_units(name, std::abs(bias)) + " on average";
-        s += "; per cycle the data swing " + in_units(name, swing_data) + ", the model " +
-             in_units(name, swing_model);
-        if (above > 0.3)
-          s += "; " + percent(above) + " of the residual above the 10th harmonic (fast ringing)";
-        else
-          s += "; mostly at harmonic " + std::to_string(top) + " (" + in_units(name, amp[top]) + ")";
-        const double growth = rms_third[0] > 0 ? rms_third[2] / rms_third[0] : 0;
-        if (growth > 1.5)
-          s += "; grows over the record (last third " + format_number(std::round(growth * 10) / 10) +
-               " x the first)";
-        else if (growth > 0 && growth < 1 / 1.5)
-          s += "; fades over the record (start-up transient)";
-        L.sentence_of[name] = s;
-        if (norms.at(name) >= 0.03) // within a few percent of the swing: not worth a sentence of its own
-          L.sentences.push_back(pretty(name) + ": " + s);
+          L.dominant_half = s.half_fraction[0] >= s.half_fraction[1] ? "pressurising" : "refill";
       }
-    if (L.sentences.empty())
-      L.sentences.push_back("every signal within 3 % of its swing: no clear disagreement");
     return L;
   }
 
@@ -439,11 +398,7 @@ namespace rectify::diagnosis
     const auto                  L = localise(run, model, f, swings);
     for (const auto &[name, v] : residual_norms(run, model, noise, from))
       if (name != "overall")
-        {
-          char units[64];
-          std::snprintf(units, sizeof units, ", %.3g noise units: ", v);
-          out.push_back({name, v, pretty(name) + units + L.sentence_of.at(name)});
-        }
+        out.push_back({name, v, L.signals.at(name)});
     std::stable_sort(out.begin(), out.end(),
                      [](const SignalResidual &a, const SignalResidual &b) { return a.noise_units > b.noise_units; });
     return out;

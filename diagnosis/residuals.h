@@ -8,6 +8,8 @@
 // mean), so that pressures, openings and strains add up.
 #pragma once
 
+#include <array>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -77,30 +79,45 @@ namespace rectify::diagnosis
                                                const std::map<std::string, double> &scales,
                                                std::size_t from = 0);
 
-  /// One run's residual described: numbers (json) and sentences.
+  /// One signal's residual (model - data) in shape: its size, where in
+  /// the cycle and the record it lies, at which harmonics, and the swing
+  /// per cycle of data and model (words.h: shape_words).
+  struct SignalShape
+  {
+    double                rms_normalised = 0; ///< over its scale
+    double                rms  = 0;           ///< in the signal's unit
+    double                bias = 0;           ///< mean of model - data
+    std::array<double, 2> half_fraction{};    ///< of its energy in the pressurising stroke, the refill
+    /// over the second half's whole cycles: mean (0) and harmonics 1..10
+    std::vector<double>   harmonic_amplitudes;
+    int                   dominant_harmonic = 1;
+    double                above_10th = 0;     ///< share of its energy above the 10th harmonic
+    std::array<double, 3> rms_by_third{};     ///< RMS in each third of the record
+    double                swing_data = 0, swing_model = 0; ///< mean max - min per cycle
+  };
+
+  /// One run's residual described, signal by signal.
   struct Localisation
   {
-    nlohmann::json           numbers;
-    std::vector<std::string> sentences;
-    /// every signal's sentence, without its name (`sentences`: those above 3 % of the swing)
-    std::map<std::string, std::string> sentence_of;
+    std::map<std::string, SignalShape> signals;
     std::string              dominant_signal; ///< largest normalised residual
     std::string              dominant_half;   ///< "pressurising" or "refill"
+    nlohmann::json           numbers() const; ///< summary.json's
   };
   Localisation localise(const MeasuredRun &run, const Signals &model, double frequency_Hz,
                         const std::map<std::string, double> &scales);
 
   /// What a model leaves, signal by signal, in the units the verdict
   /// counts: each signal's RMS residual in units of its noise (`noise`,
-  /// from sample `from` on), described as localise() does with `swings`;
-  /// the most first. The first is where most of it lies, which is not the
-  /// largest share of a swing: a no-flow record's outlet pressure hardly
-  /// swings, so a residual within its noise is a large share of it.
+  /// from sample `from` on), its shape as localise() finds it with
+  /// `swings`; the most first. The first is where most of it lies, which is
+  /// not the largest share of a swing: a no-flow record's outlet pressure
+  /// hardly swings, so a residual within its noise is a large share of it.
   struct SignalResidual
   {
     std::string signal;
     double      noise_units = 0;
-    std::string description; ///< "strain, 2.72 noise units: residual ... RMS (1 % of its swing), ..."
+    SignalShape shape;
   };
   std::vector<SignalResidual> residuals_in_noise_units(const MeasuredRun &run, const Signals &model,
                                                        double frequency_Hz,

@@ -25,17 +25,76 @@ namespace rectify::diagnosis
 {
   /// A baseline parameter at the baseline fit ("none" with every uncertain
   /// parameter and the force gain) and whether the data determine it.
+  /// A left-out parameter tried on with the named effect (calibrate_left_out):
+  /// not tried (the named fit's training RMS, noise units, leaves no gap
+  /// above the noise), turned on (the best of `starts` fits, from
+  /// `best_from`, beat the fit without it), no better, or every fit failed.
+  struct LeftOutTry
+  {
+    enum class Outcome
+    {
+      not_tried,
+      on,
+      no_better,
+      failed
+    };
+    Outcome outcome = Outcome::not_tried;
+    int     starts  = 0;
+    double  rms_train = 0, best_from = 0, bic_with = 0, bic_without = 0;
+  };
+
   struct BaselineParameter
   {
     std::string name;          ///< "table.key", or "force_gain"
     double      value = 0, nominal = 0, lower = 0, upper = 0;
     double      sd_unit = 0;   ///< standard error as a share of its (log) range
     bool        identifiable = true;
-    std::string note;          ///< why held, strongest correlation
+    /// Its strongest correlation with another parameter at the check that
+    /// judged it, where above 0.9 in size (else 0)
+    double      correlation = 0;
+    std::string correlated_with;
+    /// Held by that check: its standard error (sd_unit) too large, or a
+    /// partner it cannot be told apart from
+    bool        held_undetermined = false;
+    /// Where a fit leaves it on an end of its declared range: -1 the lower,
+    /// +1 the upper, 0 neither (or the value is not a fit's)
+    int         at_end = 0;
+    /// Before an effect is named: left out (off in the case, tried on with
+    /// the named effect), or why it does nothing in the case's model
+    bool        left_out = false;
+    std::string inert;
+    /// What trying it on with the named effect did
+    std::optional<LeftOutTry> tried;
     /// freed at a named fit as the effect's own shape (it does nothing in
     /// the case's model: the friction's with piston_friction), not as a
     /// baseline parameter the effect's fit determines
     bool effect_shape = false;
+  };
+
+  /// A candidate's searches not restarted: its first searches closed
+  /// `closed` of the gap above the noise that none leaves, `reachable` if
+  /// two more gained as much; `restart_needed` would have restarted them,
+  /// `name_needed` names it (shares of that gap).
+  struct SearchStop
+  {
+    double closed = 0, reachable = 0, restart_needed = 0, name_needed = 0;
+  };
+
+  /// What a ringing start did with one frequency of the residual's
+  /// spectrum, its values over the residual with the effect off (the weak
+  /// end's): the grid's best over 3 cycles (-1: no value in range rings
+  /// there); where the pair grids were not run, the bases' and lines' best
+  /// (else 0) and the reach they needed; the best after the valley search
+  /// and scans over 6 cycles (-1: not refined) and whether that is a start.
+  struct RingingTry
+  {
+    double f = 0, grid = -1, lines = 0, lines_needed = 0, six = -1;
+    bool   start = false;
+  };
+  struct RingingLog
+  {
+    bool                    no_peak = false; ///< no peak in the residual's spectrum where it can ring
+    std::vector<RingingTry> tries;
   };
 
   struct CandidateResult
@@ -55,12 +114,12 @@ namespace rectify::diagnosis
     double              wall_time_s = 0;
     bool                failed = false;    ///< every start failed to simulate
     std::string         message;
-    /// How its searches ended where that is not the usual (not restarted:
-    /// too far from closing the gap to be named; fit() in diagnose.cpp).
-    std::string         search_note;
-    /// What became of each frequency its ringing start tried (an effect
-    /// whose parameter sets a ringing: the outlet line), or empty.
-    std::string         ringing_note;
+    /// Where its searches were not restarted (too far from closing the gap
+    /// to be named; fit.cpp), by how far.
+    std::optional<SearchStop> not_restarted;
+    /// What its ringing start (an effect whose parameter sets a ringing:
+    /// the outlet line) did with each frequency; none where it has none.
+    std::optional<RingingLog> ringing;
     int                 ringing_runs   = 0; ///< of `evaluations`: the ringing start's (short) runs
     double              ringing_time_s = 0; ///< of `wall_time_s`: the ringing start's
   };
@@ -95,6 +154,10 @@ namespace rectify::diagnosis
     std::array<double, 2> profile_value{}, profile_rms{}, profile_evidence{};
     double      rms_at_fit = 0;                 ///< the fit's own training residual, the same units
     bool        profile_determined = true;      ///< every side tried: evidence > DiagnoseOptions::bic_threshold
+    std::array<bool, 2> profile_tried{};        ///< each side moved and refitted
+    /// The profile's step (DiagnoseOptions::determined_relative_sd) and the
+    /// evidence a side needs against it (DiagnoseOptions::bic_threshold).
+    double      profile_step = 0, evidence_needed = 0;
     /// profile_determined (where no side could be tried: local_relative_sd
     /// <= DiagnoseOptions::determined_relative_sd)
     bool        determined = true;
@@ -111,7 +174,7 @@ namespace rectify::diagnosis
 
   struct RoundResult
   {
-    std::string                  effect = "none"; ///< named effect or "none"
+    std::optional<std::string>   effect; ///< the named effect (none: no candidate was named)
     std::vector<double>          values;
     double                       force_gain = 1.0;
     std::map<std::string, double> baseline;       ///< [uncertain] values of the chosen fit
@@ -191,7 +254,9 @@ namespace rectify::diagnosis
     int                          refine_passes = 0; ///< refits with rescaled residuals
     std::vector<ParameterUncertainty> uncertainty;  ///< per effect parameter, at the final fit
     std::optional<CombinedEstimate>   combined;     ///< when the effect declares a combination
-    std::string                       uncertainty_sentence; ///< both in words
+    /// Why the standard errors could not be computed ("" where they were;
+    /// words.h: uncertainty_words, the parameters' part in words).
+    std::string                       uncertainty_error;
     int                               uncertainty_runs = 0; ///< runs of the model they took
     /// Where the fit moved to a better side of its profile: each move's
     /// value, training residual (noise units) and evidence (negative: better)

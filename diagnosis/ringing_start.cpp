@@ -155,7 +155,7 @@ namespace rectify::diagnosis
           bases_.push_back(prior);
       }
 
-      std::vector<std::vector<double>> run(const std::vector<Cluster> &clusters, std::string &note)
+      std::vector<std::vector<double>> run(const std::vector<Cluster> &clusters, RingingLog &log)
       {
         weak_end_over_3_cycles();
         for (const auto &cluster : clusters)
@@ -166,7 +166,7 @@ namespace rectify::diagnosis
         for (const auto &f : found_)
           if (f.value < none6_.best)
             starts.push_back(f.u);
-        note = describe();
+        log = what_was_tried();
         return starts;
       }
 
@@ -185,7 +185,7 @@ namespace rectify::diagnosis
       void                  try_frequency(double f_peak);
       void                  scan(double horizon, double ratio, int half_width, std::vector<double> &best,
                                  double &value);
-      std::string           describe() const;
+      RingingLog            what_was_tried() const;
 
       const Evaluator                 &ev_;
       const EffectParameter           &par_;
@@ -384,42 +384,32 @@ namespace rectify::diagnosis
     }
 
     /// What became of each frequency, for the report.
-    std::string RingingStart::describe() const
+    RingingLog RingingStart::what_was_tried() const
     {
-      std::string note;
+      RingingLog log;
       for (const auto &t : log_)
         {
-          char buf[240];
-          if (t.grid < 0)
-            std::snprintf(buf, sizeof buf, "%.0f Hz: out of its range", t.f);
-          else if (t.lines > 0)
-            std::snprintf(buf, sizeof buf,
-                          "%.0f Hz: the lines along the baseline %.3g x the residual with it off over 3 cycles, its "
-                          "pair grids not run (below %.3g x needed)",
-                          t.f, t.lines, pair_grid_reach);
-          else if (t.six < 0)
-            std::snprintf(buf, sizeof buf,
-                          "%.0f Hz: its grid %.3g x the residual with it off over 3 cycles, no further", t.f, t.grid);
-          else
-            std::snprintf(buf, sizeof buf,
-                          "%.0f Hz: its grid %.3g x the residual with it off over 3 cycles, refined to %.3g x over 6 "
-                          "(%s)",
-                          t.f, t.grid, t.six / none6_.best, t.six < none6_.best ? "a start" : "not a start");
-          note += (note.empty() ? "" : "; ") + std::string(buf);
+          RingingTry r{t.f, t.grid, t.lines, pair_grid_reach, -1, false};
+          if (t.grid >= 0 && !(t.lines > 0) && t.six >= 0)
+            {
+              r.six   = t.six / none6_.best;
+              r.start = t.six < none6_.best;
+            }
+          log.tries.push_back(r);
         }
-      return note;
+      return log;
     }
   } // namespace
 
-  std::vector<std::vector<double>> ringing_start(const Evaluator &ev, int &runs_of_the_model, std::string &note)
+  std::vector<std::vector<double>> ringing_start(const Evaluator &ev, int &runs_of_the_model, RingingLog &log)
   {
-    note.clear();
+    log                 = {};
     const auto clusters = ringing_frequencies(ev, ev.effect->parameters()[0]);
     if (clusters.empty())
       {
-        note = "no peak in the residual's spectrum where it can ring";
+        log.no_peak = true;
         return {};
       }
-    return RingingStart(ev, runs_of_the_model).run(clusters, note);
+    return RingingStart(ev, runs_of_the_model).run(clusters, log);
   }
 } // namespace rectify::diagnosis

@@ -12,12 +12,13 @@
 #include <string>
 #include <vector>
 
+#include "diagnosis/results.h"
 #include "diagnosis/search.h"
 
 namespace rectify::diagnosis
 {
   /// The start points (see ringing_start.cpp for the method); counts its
-  /// (short) runs of the model into runs_of_the_model; `note` says what
+  /// (short) runs of the model into runs_of_the_model; `log` says what
   /// became of each frequency it tried.
-  std::vector<std::vector<double>> ringing_start(const Evaluator &ev, int &runs_of_the_model, std::string &note);
+  std::vector<std::vector<double>> ringing_start(const Evaluator &ev, int &runs_of_the_model, RingingLog &log);
 } // namespace rectify::diagnosis

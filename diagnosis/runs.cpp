@@ -6,6 +6,7 @@
 
 #include "diagnosis/fit.h"
 #include "diagnosis/search.h"
+#include "diagnosis/words.h"
 
 namespace rectify::diagnosis
 {
@@ -79,10 +80,8 @@ namespace rectify::diagnosis
     const double h = compared_harmonics(harmonics, f, reed_frequency_Hz);
     if (h > 0 && uniformly_sampled(run.time_s))
       {
-        rc.band_reason = h < harmonics ? "below half the reed's natural frequency (" +
-                                           std::to_string(static_cast<long>(std::lround(reed_frequency_Hz))) +
-                                           " Hz): the valves flutter there in a loaded run" :
-                                         "as asked";
+        rc.band_why     = h < harmonics ? RunCase::BandWhy::below_reed : RunCase::BandWhy::as_asked;
+        rc.reed_Hz      = reed_frequency_Hz;
         rc.harmonics    = h;
         const double dt = run.duration_s() / static_cast<double>(run.time_s.size() - 1);
         rc.band_Hz      = (h + 0.5) * f;
@@ -100,7 +99,7 @@ namespace rectify::diagnosis
           {
             rc.band_Hz     = 0;
             rc.harmonics   = 0;
-            rc.band_reason = "the band asked for reaches the sampling's Nyquist frequency: every sample";
+            rc.band_why    = RunCase::BandWhy::nyquist;
           }
       }
     for (const auto &c : signal_columns())
@@ -267,9 +266,10 @@ namespace rectify::diagnosis
         const double dt = (t.back() - t.front()) / static_cast<double>(t.size() - 1);
         rc.n_skip = std::min(rc.n_train / 2, static_cast<std::size_t>(std::llround(settling / (rc.setup.frequency_Hz * dt))));
         rc.start_memory.clear();
-        rc.settling_reason = options.settling_cycles >= 0 ? "as given (--settling-cycles)"
-                             : rc.start == StartState::rest ? "none: a start at rest is exact"
-                                                            : "one cycle";
+        using Why   = RunCase::Settling::Why;
+        rc.settling = {options.settling_cycles >= 0   ? Why::given :
+                       rc.start == StartState::rest ? Why::rest_exact :
+                                                      Why::one_cycle};
       }
   }
 
@@ -294,6 +294,7 @@ namespace rectify::diagnosis
   void settle(const system::SystemParameters &base, const system::ValveMaps &map, std::vector<RunCase> &runs,
               const DiagnoseOptions &options, unsigned threads)
   {
+    using Why = RunCase::Settling::Why;
     if (options.settling_cycles >= 0)
       return;
     std::vector<std::size_t> todo;
@@ -334,11 +335,11 @@ namespace rectify::diagnosis
         rc.n_skip = std::min(rc.n_train / 2, static_cast<std::size_t>(std::llround(m)));
         if (!ok[r][0] || !ok[r][1] || cycles < 2)
           {
-            rc.settling_reason = "one cycle (the model's memory of its start not measured: " +
-                                 std::string(cycles < 2 ? "fewer than two training cycles" : "a run failed") + ")";
+            rc.settling = {cycles < 2 ? Why::few_cycles : Why::run_failed};
             continue;
           }
-        const std::string other = to_string(rc.start == StartState::periodic ? StartState::record : StartState::periodic);
+        rc.settling = {Why::settled, rc.start,
+                       rc.start == StartState::periodic ? StartState::record : StartState::periodic};
         rc.start_memory.clear();
         for (std::size_t c = 0; c < cycles; ++c)
           {
@@ -357,38 +358,33 @@ namespace rectify::diagnosis
               }
             rc.start_memory.push_back(std::sqrt(sum / static_cast<double>(std::max<std::size_t>(n, 1))));
           }
-        char buf[400];
+        auto &s = rc.settling;
         if (!runs_meet(rc.start_memory, options.settling_tolerance))
           {
             // two orbits (an outlet valve that opens every cycle from one
             // start and stays shut from the other): no memory to measure
-            const double largest = *std::max_element(rc.start_memory.begin(), rc.start_memory.end());
-            std::snprintf(buf, sizeof buf,
-                          "one cycle: the model's runs from the %s start and from the %s one do not meet within the "
-                          "training part, nor come half-way together (%.3g noise units apart in its last cycle, "
-                          "%.3g at most)",
-                          to_string(rc.start).c_str(), other.c_str(), rc.start_memory.back(), largest);
-            rc.settling_reason = buf;
-            if (options.progress)
-              options.progress("settling of " + rc.run.source + ": " + rc.settling_reason);
-            continue;
+            s.why     = Why::orbits_apart;
+            s.last    = rc.start_memory.back();
+            s.largest = *std::max_element(rc.start_memory.begin(), rc.start_memory.end());
           }
-        const std::size_t c = settled_from(rc.start_memory, options.settling_tolerance, 1, cycles / 2);
-        rc.n_skip = std::min(rc.n_train / 2, static_cast<std::size_t>(std::llround(static_cast<double>(c) * m)));
-        if (c == cycles / 2 && rc.start_memory[c] > options.settling_tolerance)
-          std::snprintf(buf, sizeof buf,
-                        "%zu cycles, half the training part: the model's runs from the %s start and from the %s one "
-                        "meet later (%.3g noise units apart in cycle %zu)",
-                        c, to_string(rc.start).c_str(), other.c_str(), rc.start_memory[c], c + 1);
         else
-          std::snprintf(buf, sizeof buf,
-                        "%zu cycle%s: the model's runs from the %s start and from the %s one differ by at most "
-                        "%.3g noise units per cycle from then on (%.3g in the first)",
-                        c, c == 1 ? "" : "s", to_string(rc.start).c_str(), other.c_str(), options.settling_tolerance,
-                        rc.start_memory.front());
-        rc.settling_reason = buf;
+          {
+            const std::size_t c = settled_from(rc.start_memory, options.settling_tolerance, 1, cycles / 2);
+            rc.n_skip = std::min(rc.n_train / 2, static_cast<std::size_t>(std::llround(static_cast<double>(c) * m)));
+            s.cycles  = c;
+            if (c == cycles / 2 && rc.start_memory[c] > options.settling_tolerance)
+              {
+                s.why   = Why::meets_later;
+                s.apart = rc.start_memory[c];
+              }
+            else
+              {
+                s.tolerance = options.settling_tolerance;
+                s.apart     = rc.start_memory.front();
+              }
+          }
         if (options.progress)
-          options.progress("settling of " + rc.run.source + ": " + rc.settling_reason);
+          options.progress("settling of " + rc.run.source + ": " + settling_words(rc));
       }
   }
   std::vector<RunCase> read_run_cases(const std::vector<std::string> &paths, system::Scenario scenario,

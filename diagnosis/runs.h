@@ -40,7 +40,27 @@ namespace rectify::diagnosis
     /// orbit; a periodic start: the recorded state), RMS difference per
     /// training cycle in noise units (settle; empty where not computed)
     std::vector<double>           start_memory;
-    std::string                   settling_reason; ///< why n_skip is what it is
+    /// Why n_skip is what it is (words.h: settling_words)
+    struct Settling
+    {
+      enum class Why
+      {
+        unset,
+        given,        ///< --settling-cycles
+        rest_exact,   ///< none: a start at rest is exact
+        one_cycle,    ///< one cycle, not measured (yet)
+        few_cycles,   ///< one: fewer than two training cycles to measure the memory in
+        run_failed,   ///< one: a run from one of the two starts failed
+        orbits_apart, ///< one: the runs from the two starts do not meet (`last`, `largest` apart)
+        meets_later,  ///< `cycles`, half the training part: still `apart` in the cycle after
+        settled       ///< `cycles`: within `tolerance` from then on (`apart` in the first)
+      };
+      Why         why = Why::unset;
+      StartState  start = StartState::rest, other = StartState::periodic; ///< the two starts compared
+      std::size_t cycles = 0;
+      double      apart = 0, last = 0, largest = 0, tolerance = 0; ///< noise units per cycle
+    };
+    Settling                      settling;
     StartState                    start   = StartState::rest;
     double                        lead_cycles = 0;   ///< simulated before the record
     /// Its state at the first sample (StartState::record), read once from
@@ -50,14 +70,29 @@ namespace rectify::diagnosis
     /// make_run_case: remake it if `run` changes.
     std::shared_ptr<const system::Drive> drive;
     nlohmann::json                start_scores;      ///< residual of each start tried (auto)
-    /// "rest with the case's baseline, record with valve_leakage's fit" when
-    /// the start was chosen again, with the named effect, and changed (a
-    /// later round appends ", periodic with its effect's fit")
-    std::string                   start_revised;
+    /// Each time the start was chosen again, with a named effect's fit,
+    /// and changed: from what, to what, with which effect (a later round
+    /// appends its own)
+    struct StartRevision
+    {
+      StartState  from, to;
+      std::string effect;
+    };
+    std::vector<StartRevision>    start_revisions;
     std::vector<Outlier>          outliers;          ///< found and replaced in the record
     double                        band_Hz = 0;        ///< the comparison's band (0: whole)
     double                        harmonics = 0;      ///< harmonics compared (0: every sample)
-    std::string                   band_reason;        ///< why the band stops where it does
+    /// Why the band stops where it does: as asked, below half the reed's
+    /// natural frequency (`reed_Hz`), or not at all (the sampling's Nyquist)
+    enum class BandWhy
+    {
+      unset,
+      as_asked,
+      below_reed,
+      nyquist
+    };
+    BandWhy                       band_why = BandWhy::unset;
+    double                        reed_Hz  = 0;
     double                        band_fraction = 1;  ///< of the white noise's power inside it
     std::map<std::string, double> white_sd;           ///< each signal's white noise (whole band)
     std::map<std::string, double> cyclic_sd;          ///< its cycle-to-cycle scatter inside the band

@@ -40,11 +40,11 @@ namespace rectify::diagnosis
           cj["wall_time_s"]  = c.wall_time_s;
           cj["failed"]       = c.failed;
           cj["optimiser"]    = c.message;
-          if (!c.search_note.empty())
-            cj["search"] = c.search_note;
-          if (!c.ringing_note.empty())
+          if (c.not_restarted)
+            cj["search"] = search_words(c);
+          if (const auto ringing = ringing_words(c); !ringing.empty())
             {
-              cj["ringing"]        = c.ringing_note;
+              cj["ringing"]        = ringing;
               cj["ringing_runs"]   = c.ringing_runs;
               cj["ringing_time_s"] = c.ringing_time_s;
             }
@@ -62,7 +62,7 @@ namespace rectify::diagnosis
                          {"bounds", {b.lower, b.upper}},
                          {"standard_error_of_range", b.sd_unit},
                          {"identifiable", b.identifiable},
-                         {"note", b.note}});
+                         {"note", standing_words(b)}});
       return check;
     }
 
@@ -72,7 +72,7 @@ namespace rectify::diagnosis
       for (const auto &b : rr.freed)
         freed.push_back({{"parameter", b.name},
                          {"standard_error_of_range", b.sd_unit},
-                         {"note", b.note},
+                         {"note", standing_words(b)},
                          {"freed_as", b.effect_shape ? "the named effect's shape (held while the model lacked it)"
                                                      : "a baseline parameter the named effect's fit determines"},
                          {"refitted", rr.baseline.count(b.name) ? json(rr.baseline.at(b.name)) : json()}});
@@ -86,7 +86,7 @@ namespace rectify::diagnosis
       json out = json::array();
       for (const auto &x : b)
         {
-          json t = {{"parameter", x.name}, {"on", x.value != 0.0}, {"fitted", x.value}, {"note", x.note}};
+          json t = {{"parameter", x.name}, {"on", x.value != 0.0}, {"fitted", x.value}, {"note", standing_words(x)}};
           if (refitted)
             t["refitted"] = refitted->baseline.count(x.name) ? json(refitted->baseline.at(x.name)) : json();
           out.push_back(std::move(t));
@@ -171,12 +171,12 @@ namespace rectify::diagnosis
       return combined;
     }
 
-    json parameters_json(const std::string &effect, const std::vector<double> &values)
+    json parameters_json(const std::optional<std::string> &effect, const std::vector<double> &values)
     {
       json p = json::object();
-      if (effect != "none")
+      if (effect)
         {
-          const auto e = find_effect(effect);
+          const auto e = find_effect(*effect);
           for (std::size_t i = 0; i < values.size(); ++i)
             p[e->parameters()[i].key] = values[i];
         }
@@ -197,11 +197,11 @@ namespace rectify::diagnosis
       json       candidates    = json::array();
       for (const auto &c : rr.candidates)
         candidates.push_back(candidate_json(c));
-      return {{"effect", rr.effect},
+      return {{"effect", rr.effect.value_or("none")},
               {"parameters", p},
               {"parameter_uncertainty", uncertainty},
               {"combined", combined},
-              {"uncertainty_sentence", rr.uncertainty_sentence},
+              {"uncertainty_sentence", uncertainty_words(rr)},
               {"uncertainty_runs_of_the_model", rr.uncertainty_runs},
               {"moved_along_its_profile", rr.profile_moves},
               {"held_partner", rr.held_partner},
@@ -229,7 +229,7 @@ namespace rectify::diagnosis
         largest = {{"run", runs[k].run.source},
                    {"signal", most->signal},
                    {"noise_units", most->noise_units},
-                   {"description", most->description}};
+                   {"description", residual_words(*most)}};
       return largest;
     }
 
@@ -257,7 +257,7 @@ namespace rectify::diagnosis
         json out = json::array();
         if (i < all.size())
           for (const auto &x : all[i])
-            out.push_back({{"signal", x.signal}, {"noise_units", x.noise_units}, {"description", x.description}});
+            out.push_back({{"signal", x.signal}, {"noise_units", x.noise_units}, {"description", residual_words(x)}});
         return out;
       };
       json localisation = json::array();
@@ -266,13 +266,13 @@ namespace rectify::diagnosis
                                 {"frequency_Hz", runs[i].setup.frequency_Hz},
                                 {"start", to_string(r.runs[i].start)},
                                 {"start_residuals", r.runs[i].start_scores},
-                                {"start_revised", r.runs[i].start_revised},
+                                {"start_revised", start_revision_words(r.runs[i])},
                                 {"harmonics_compared", r.runs[i].harmonics},
                                 {"band_Hz", r.runs[i].band_Hz},
-                                {"band_reason", r.runs[i].band_reason},
+                                {"band_reason", band_words(r.runs[i])},
                                 {"lead_cycles", r.runs[i].lead_cycles},
                                 {"settling_samples_left_out", r.runs[i].n_skip},
-                                {"settling_reason", r.runs[i].settling_reason},
+                                {"settling_reason", settling_words(r.runs[i])},
                                 {"start_memory_noise_units", r.runs[i].start_memory},
                                 {"outliers", [&] {
                                    json o = json::array();
@@ -284,10 +284,10 @@ namespace rectify::diagnosis
                                                   {"noise_units", x.noise_units}});
                                    return o;
                                  }()},
-                                {"sentences", r.localisation[i].sentences},
+                                {"sentences", localisation_words(r.localisation[i])},
                                 {"before_in_noise_units", in_noise_units(r.remaining_before, i)},
                                 {"after_in_noise_units", in_noise_units(r.remaining, i)},
-                                {"numbers", r.localisation[i].numbers}});
+                                {"numbers", r.localisation[i].numbers()}});
       return localisation;
     }
 
@@ -391,12 +391,12 @@ namespace rectify::diagnosis
     double shrink = 0;
     if (r.residual_before.at("overall") > 0)
       shrink = 1.0 - r.residual_after.at("overall") / r.residual_before.at("overall");
-    return {{"effect", first.effect},
+    return {{"effect", first.effect.value_or("none")},
             {"parameters", parameters},
             {"parameter_uncertainty", rounds.front()["parameter_uncertainty"]},
             {"combined", rounds.front()["combined"]},
             {"held_partner", rounds.front()["held_partner"]},
-            {"uncertainty_sentence", first.uncertainty_sentence},
+            {"uncertainty_sentence", uncertainty_words(first)},
             {"confidence", first.confidence},
             {"decision", decision_words(first)},
             {"residual_before", r.residual_before},

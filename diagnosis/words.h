@@ -34,6 +34,40 @@ namespace rectify::diagnosis
   /// What a try of left-out parameters did with each.
   std::string left_out_words(const std::vector<BaselineParameter> &b);
 
+  /// Why a baseline parameter stands where it does: held (and why), its
+  /// strongest correlation, a left-out one's try, off, or on an end of its
+  /// range ("" where none applies).
+  std::string standing_words(const BaselineParameter &b);
+
+  /// "rest with the case's baseline, record with valve_leakage's fit": how
+  /// a run's start was chosen again with named effects ("" where never).
+  std::string start_revision_words(const RunCase &rc);
+
+  /// Why a run's settling window and its band are what they are ("" where
+  /// not set).
+  std::string settling_words(const RunCase &rc);
+  std::string band_words(const RunCase &rc);
+
+  /// A signal's residual in words, without its name ("residual 0.1 MPa RMS
+  /// (4 % of its swing), 80 % of it in the refill; ..."); a run's
+  /// sentences, each signal's above 3 % of its swing with its name; what a
+  /// model leaves in one signal ("strain, 2.72 noise units: residual ...").
+  std::string              shape_words(const std::string &signal, const SignalShape &s);
+  std::vector<std::string> localisation_words(const Localisation &L);
+  std::string              residual_words(const SignalResidual &r);
+
+  /// How a candidate's searches ended where that is not the usual (not
+  /// restarted, and why), and what its ringing start did with each
+  /// frequency ("" where neither applies).
+  std::string search_words(const CandidateResult &c);
+  std::string ringing_words(const CandidateResult &c);
+
+  /// The named effect's parameters in words: each one's standard error or
+  /// why the record does not determine it, the combined quantity, the
+  /// fit's moves along its profile (first) and the held partner (last);
+  /// or why the standard errors could not be computed ("" where none were).
+  std::string uncertainty_words(const RoundResult &rr);
+
   /// The verdict in words: `where` is the largest remaining residual's
   /// description.
   std::string verdict_sentence(Verdict v, const std::string &named_effect, double residual_baseline,

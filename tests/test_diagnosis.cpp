@@ -149,6 +149,7 @@ TEST(MeasuredRun, BadDataNamesFileRowAndColumn)
 #include "diagnosis/effect.h"
 #include "diagnosis/observation.h"
 #include "diagnosis/residuals.h"
+#include "diagnosis/words.h"
 #include "system/components/outlet_line.h"
 #include "system/model.h"
 #include "system/simulation.h"
@@ -530,15 +531,15 @@ TEST(Diagnosis, LocalisationFindsTheCycleHalfAndTheHarmonic)
   const auto a = localise(run, refill, f, scales);
   EXPECT_EQ(a.dominant_signal, "outlet_pressure_Pa");
   EXPECT_EQ(a.dominant_half, "refill");
-  EXPECT_GT(a.numbers["outlet_pressure_Pa"]["refill_fraction"].get<double>(), 0.99);
-  EXPECT_NEAR(a.numbers["outlet_pressure_Pa"]["mean_model_minus_data"].get<double>(), 1.5e5, 0.02e5);
-  ASSERT_FALSE(a.sentences.empty());
-  EXPECT_NE(a.sentences[0].find("refill"), std::string::npos) << a.sentences[0];
-  EXPECT_NE(a.sentences[0].find("above the data by 0.15 MPa"), std::string::npos) << a.sentences[0];
+  EXPECT_GT(a.numbers()["outlet_pressure_Pa"]["refill_fraction"].get<double>(), 0.99);
+  EXPECT_NEAR(a.numbers()["outlet_pressure_Pa"]["mean_model_minus_data"].get<double>(), 1.5e5, 0.02e5);
+  ASSERT_FALSE(diagnosis::localisation_words(a).empty());
+  EXPECT_NE(diagnosis::localisation_words(a)[0].find("refill"), std::string::npos) << diagnosis::localisation_words(a)[0];
+  EXPECT_NE(diagnosis::localisation_words(a)[0].find("above the data by 0.15 MPa"), std::string::npos) << diagnosis::localisation_words(a)[0];
   const auto b = localise(run, third, f, scales);
-  EXPECT_EQ(b.numbers["outlet_pressure_Pa"]["dominant_harmonic"].get<int>(), 3);
-  EXPECT_NEAR(b.numbers["outlet_pressure_Pa"]["harmonic_amplitudes"][3].get<double>(), 2e5, 0.01 * 2e5);
-  EXPECT_NE(b.sentences[0].find("harmonic 3"), std::string::npos) << b.sentences[0];
+  EXPECT_EQ(b.numbers()["outlet_pressure_Pa"]["dominant_harmonic"].get<int>(), 3);
+  EXPECT_NEAR(b.numbers()["outlet_pressure_Pa"]["harmonic_amplitudes"][3].get<double>(), 2e5, 0.01 * 2e5);
+  EXPECT_NE(diagnosis::localisation_words(b)[0].find("harmonic 3"), std::string::npos) << diagnosis::localisation_words(b)[0];
   // the norms: RMS of (model - data) / swing
   const auto norms = residual_norms(run, third, scales);
   EXPECT_NEAR(norms.at("outlet_pressure_Pa"), (2e5 / std::sqrt(2.0)) / scales.at("outlet_pressure_Pa"), 1e-3);
@@ -548,11 +549,11 @@ TEST(Diagnosis, LocalisationFindsTheCycleHalfAndTheHarmonic)
   for (std::size_t i = 0; i < run.time_s.size(); ++i)
     smaller["outlet_pressure_Pa"][i] = 3e6 + 0.8 * (run.signal("outlet_pressure_Pa")[i] - 3e6);
   const auto c = localise(run, smaller, f, scales);
-  EXPECT_NEAR(c.numbers["outlet_pressure_Pa"]["cycle_swing_data"].get<double>(), 2e6, 0.01 * 2e6);
-  EXPECT_NEAR(c.numbers["outlet_pressure_Pa"]["cycle_swing_model"].get<double>(), 1.6e6, 0.01 * 1.6e6);
-  EXPECT_NE(c.sentences[0].find("per cycle the data swing 2 MPa, the model 1.6 MPa"), std::string::npos)
-    << c.sentences[0];
-  EXPECT_EQ(c.sentences[0].find("over the record"), std::string::npos) << c.sentences[0]; // steady
+  EXPECT_NEAR(c.numbers()["outlet_pressure_Pa"]["cycle_swing_data"].get<double>(), 2e6, 0.01 * 2e6);
+  EXPECT_NEAR(c.numbers()["outlet_pressure_Pa"]["cycle_swing_model"].get<double>(), 1.6e6, 0.01 * 1.6e6);
+  EXPECT_NE(diagnosis::localisation_words(c)[0].find("per cycle the data swing 2 MPa, the model 1.6 MPa"), std::string::npos)
+    << diagnosis::localisation_words(c)[0];
+  EXPECT_EQ(diagnosis::localisation_words(c)[0].find("over the record"), std::string::npos) << diagnosis::localisation_words(c)[0]; // steady
 
   // a residual whose amplitude ramps up (or down) over the record
   Signals growing = refill, fading = refill;
@@ -574,16 +575,16 @@ TEST(Diagnosis, LocalisationFindsTheCycleHalfAndTheHarmonic)
       e2[k] += std::pow(2e5 * std::sin(2 * std::numbers::pi * f * t) * t / duration, 2);
       n3[k] += 1;
     }
-  const double growth = g.numbers["outlet_pressure_Pa"]["rms_by_third_of_record"][2].get<double>() /
-                        g.numbers["outlet_pressure_Pa"]["rms_by_third_of_record"][0].get<double>();
+  const double growth = g.numbers()["outlet_pressure_Pa"]["rms_by_third_of_record"][2].get<double>() /
+                        g.numbers()["outlet_pressure_Pa"]["rms_by_third_of_record"][0].get<double>();
   EXPECT_NEAR(growth, std::sqrt((e2[2] / n3[2]) / (e2[0] / n3[0])), 1e-3);
   EXPECT_NEAR(growth, std::sqrt(19.0), 0.15);
-  EXPECT_NE(g.sentences[0].find("grows over the record (last third " + format_number(std::round(growth * 10) / 10) +
+  EXPECT_NE(diagnosis::localisation_words(g)[0].find("grows over the record (last third " + format_number(std::round(growth * 10) / 10) +
                                 " x the first)"),
             std::string::npos)
-    << g.sentences[0];
+    << diagnosis::localisation_words(g)[0];
   const auto d = localise(run, fading, f, scales);
-  EXPECT_NE(d.sentences[0].find("fades over the record"), std::string::npos) << d.sentences[0];
+  EXPECT_NE(diagnosis::localisation_words(d)[0].find("fades over the record"), std::string::npos) << diagnosis::localisation_words(d)[0];
 }
 
 // What the verdict points at is where most of what remains lies in noise
@@ -630,16 +631,16 @@ TEST(Diagnosis, TheLargestResidualIsCountedInNoiseUnitsNotInShareOfTheSwing)
   EXPECT_NEAR(all_three[1].noise_units, 2.0, 1e-6);
   EXPECT_EQ(all_three[2].signal, "outlet_pressure_Pa");
   EXPECT_NEAR(all_three[2].noise_units, 0.5, 1e-6);
-  EXPECT_EQ(all_three[2].description.rfind(
+  EXPECT_EQ(residual_words(all_three[2]).rfind(
               "outlet pressure, 0.5 noise units: residual 0.005 MPa RMS (71 % of its swing)", 0),
             0u)
-    << all_three[2].description;
+    << residual_words(all_three[2]);
   const auto &L = all_three.front();
   EXPECT_EQ(L.signal, "strain");
   EXPECT_NEAR(L.noise_units, 4.0, 1e-6);
-  EXPECT_EQ(L.description.rfind("strain, 4 noise units: residual 3e-06 RMS (4 % of its swing)", 0), 0u)
-    << L.description;
-  EXPECT_NE(L.description.find("model above the data by 3e-06 on average"), std::string::npos) << L.description;
+  EXPECT_EQ(residual_words(L).rfind("strain, 4 noise units: residual 3e-06 RMS (4 % of its swing)", 0), 0u)
+    << residual_words(L);
+  EXPECT_NE(residual_words(L).find("model above the data by 3e-06 on average"), std::string::npos) << residual_words(L);
   // samples skipped at the start (a settling window) are not counted
   auto late = model;
   for (std::size_t i = 0; i < 600; ++i)
@@ -653,14 +654,14 @@ TEST(Diagnosis, TheLargestResidualIsCountedInNoiseUnitsNotInShareOfTheSwing)
   // a signal within 3 % of its swing has no sentence in the localisation,
   // but the largest in noise units is described all the same
   Signals chamber_only{{"chamber_pressure_Pa", model["chamber_pressure_Pa"]}};
-  EXPECT_EQ(localise(run, chamber_only, f, swings).sentences.front(),
+  EXPECT_EQ(diagnosis::localisation_words(localise(run, chamber_only, f, swings)).front(),
             "every signal within 3 % of its swing: no clear disagreement");
   const auto c = residuals_in_noise_units(run, chamber_only, f, swings, noise, 0).front();
   EXPECT_EQ(c.signal, "chamber_pressure_Pa");
   EXPECT_NEAR(c.noise_units, 2.0, 1e-6);
-  EXPECT_EQ(c.description.rfind("chamber pressure, 2 noise units: residual 0.02 MPa RMS (1 % of its swing)", 0),
+  EXPECT_EQ(residual_words(c).rfind("chamber pressure, 2 noise units: residual 0.02 MPa RMS (1 % of its swing)", 0),
             0u)
-    << c.description;
+    << residual_words(c);
 }
 
 TEST(Diagnosis, SynthThenDiagnoseNamesAHiddenLeakAndFindsNothingInCleanData)

@@ -19,6 +19,7 @@
 #include "common/case_file.h"
 #include "diagnosis/diagnose.h"
 #include "diagnosis/search.h" // uncertain_from_unit
+#include "diagnosis/words.h"
 #include "diagnosis/effect.h"
 #include "diagnosis/measured_run.h"
 #include "diagnosis/observation.h"
@@ -663,10 +664,10 @@ TEST(ForeignData, TheSettlingWindowCoversWhatTheStartsErrorLeavesInTheRecord)
   ASSERT_EQ(runs[0].n_skip, 200u); // one cycle until the memory is measured
   settle(p, map, runs, options, 2);
   const auto &rc = runs[0];
-  ASSERT_FALSE(rc.start_memory.empty()) << rc.settling_reason;
+  ASSERT_FALSE(rc.start_memory.empty()) << diagnosis::settling_words(rc);
   const std::size_t window = rc.n_skip / 200;
   EXPECT_EQ(rc.n_skip % 200, 0u);
-  EXPECT_GE(window, 2u) << rc.settling_reason;
+  EXPECT_GE(window, 2u) << diagnosis::settling_words(rc);
   EXPECT_LE(rc.n_skip, rc.n_train / 2);
   EXPECT_LE(rc.start_memory[window], options.settling_tolerance);
   // the record's own residual (the case is the rig), cycle by cycle
@@ -686,8 +687,8 @@ TEST(ForeignData, TheSettlingWindowCoversWhatTheStartsErrorLeavesInTheRecord)
   // record is the model's within the noise
   EXPECT_GT(per_cycle.front(), 2.0) << seen;
   for (std::size_t c = window; c < per_cycle.size(); ++c)
-    EXPECT_LT(per_cycle[c], 1.5) << "cycle " << c << ": " << seen << "; " << rc.settling_reason;
-  std::cout << "per cycle: " << seen << "\nmemory: " << rc.settling_reason << "\n";
+    EXPECT_LT(per_cycle[c], 1.5) << "cycle " << c << ": " << seen << "; " << diagnosis::settling_words(rc);
+  std::cout << "per cycle: " << seen << "\nmemory: " << diagnosis::settling_words(rc) << "\n";
 }
 
 // A rig whose oil column is 2.4x the case's (a baseline gap, not an effect),

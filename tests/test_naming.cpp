@@ -177,7 +177,10 @@ TEST(Words, TheDecisionTellsEachJudgingStepInTurn)
   rr.near_miss.judgement = near;
   rr.near_miss.candidate = weak;
   rr.near_miss.baseline  = none;
-  rr.near_miss.at_none   = {{"lines.outlet_inertance_Pa_s2_per_m3", 0, 0, 0, 0, 0, true, "off (BIC 1001 on)"}};
+  BaselineParameter inertance;
+  inertance.name  = "lines.outlet_inertance_Pa_s2_per_m3";
+  inertance.tried = LeftOutTry{LeftOutTry::Outcome::no_better, 4, 2.9, 0, 1001, 1000};
+  rr.near_miss.at_none = {inertance};
   rr.judging = {{Kind::none_refitted},
                 {Kind::judged, near, weak, none},
                 {Kind::nearest_miss_tried, {}, {}, {}, false}};
@@ -191,7 +194,8 @@ TEST(Words, TheDecisionTellsEachJudgingStepInTurn)
   EXPECT_NE(d.find("Then the parameters the case leaves out, tried on at none's fit and at valve_leakage, the nearest "
                    "miss (" +
                    std::to_string(static_cast<int>(std::round(100 * near.closed))) +
-                   " % of the gap closed): at none's, lines.outlet_inertance_Pa_s2_per_m3 off (BIC 1001 on); at "
+                   " % of the gap closed): at none's, lines.outlet_inertance_Pa_s2_per_m3 a fit with it, from 4 points along "
+                   "its range, scored no better (BIC 1001 against 1000); off, as the case has it; at "
                    "valve_leakage's, nothing to try (its effect sets it): nothing changed. "),
             std::string::npos)
     << d;
@@ -218,4 +222,121 @@ TEST(Words, TheDecisionTellsEachJudgingStepInTurn)
   rr.near_miss.named = true;
   EXPECT_NE(decision_words(rr).find("(it was the nearest miss without them: it closed too little of the gap)"),
             std::string::npos);
+}
+
+TEST(Words, TheParametersSayWhatTheRecordDeterminesAndWhatNot)
+{
+  RoundResult rr;
+  EXPECT_EQ(uncertainty_words(rr), ""); // nothing named: nothing to say
+  ParameterUncertainty p;
+  p.key              = "leak_resistance_Pa_s_per_m3";
+  p.value            = 2.5e11;
+  p.relative_sd      = 0.031;
+  p.profile_step     = 0.2;
+  p.evidence_needed  = 10;
+  p.profile_tried    = {true, true};
+  p.profile_evidence = {41.6, 52.0};
+  rr.uncertainty     = {p};
+  EXPECT_EQ(uncertainty_words(rr), "leak_resistance_Pa_s_per_m3 = 2.5e+11, standard error 3.1 % (from its profile); "
+                                   "20 % either way with the baseline's uncertain parameters refitted fits worse "
+                                   "(evidence 42 and 52)");
+  // the upper side fits as well: not determined, and with what it trades
+  p.determined          = false;
+  p.profile_determined  = false;
+  p.profile_value[1]    = 3.0e11;
+  p.profile_rms         = {3.2, 1.25};
+  p.profile_evidence[1] = 4.0;
+  p.rms_at_fit          = 1.2;
+  p.correlated_with     = "[piston] area_m2";
+  p.correlation         = -0.93;
+  rr.uncertainty        = {p};
+  rr.combined           = CombinedEstimate{"high-side compliance", "the seal's and the oil's", 1e-13, 0.02, true};
+  rr.profile_moves      = {{{"value", 2.4e11}, {"training_residual", 1.3}, {"evidence", -12.0}}};
+  EXPECT_EQ(uncertainty_words(rr),
+            "the fit moved along its profile 1 time(s) to a side that fitted better (the last at 2.4e+11, evidence "
+            "-12.0) and was refitted there; leak_resistance_Pa_s_per_m3 = 2.5e+11 is not determined by the record to "
+            "20 %: leak_resistance_Pa_s_per_m3 at 3e+11 (higher) with the baseline refitted fits as well (training "
+            "residual 1.25 noise units against 1.2; evidence 4.0, 10 needed); it trades with [piston] area_m2 "
+            "(correlation -0.93); the record determines high-side compliance = 1e-13, standard error 2 % (local; the "
+            "seal's and the oil's)");
+  // a failure says so, whatever was computed before it
+  rr.uncertainty_error = "a side's refit diverged";
+  EXPECT_EQ(uncertainty_words(rr), "the parameters' standard errors could not be computed: a side's refit diverged");
+}
+
+TEST(Words, ABaselineParametersStandingIsSaidFromWhatTheChecksFound)
+{
+  BaselineParameter b;
+  b.name  = "pump.free_air_fraction";
+  b.value = 0.01;
+  EXPECT_EQ(standing_words(b), ""); // free, uncorrelated, inside its range
+  b.correlation     = -0.953;
+  b.correlated_with = "lines.oil_bulk_modulus_Pa";
+  EXPECT_EQ(standing_words(b), "correlated -0.953 with lines.oil_bulk_modulus_Pa");
+  b.held_undetermined = true;
+  b.sd_unit           = 0.42;
+  EXPECT_EQ(standing_words(b), "held at the case's value: standard error 0.42 of its range, correlated -0.953 with "
+                               "lines.oil_bulk_modulus_Pa");
+  b.held_undetermined = false;
+  b.correlation       = 0;
+  b.at_end            = 1;
+  EXPECT_EQ(standing_words(b), "at the upper end of its range: the data ask for a value beyond it (a missing effect "
+                               "can pull it there, or the range is too narrow)");
+  b.value = 0; // off is not an end the data push against
+  EXPECT_EQ(standing_words(b), "off, as the case has it");
+
+  BaselineParameter left;
+  left.left_out = true;
+  EXPECT_EQ(standing_words(left), "left out until an effect is named, then tried on with it; off, as the case has it");
+  BaselineParameter inert;
+  inert.value = 0.5;
+  inert.inert = "coulomb_friction_N = 0";
+  EXPECT_EQ(standing_words(inert), "held at the case's value: coulomb_friction_N = 0; freed with a named effect that "
+                                   "makes it act, where the data determine it");
+
+  BaselineParameter tried;
+  using Outcome = LeftOutTry::Outcome;
+  tried.tried   = LeftOutTry{Outcome::not_tried, 0, 0.87, 0, 0, 0};
+  EXPECT_EQ(standing_words(tried), "not tried: the named fit leaves no gap above the noise (training RMS 0.87 noise "
+                                   "units); off, as the case has it");
+  tried.tried = LeftOutTry{Outcome::failed, 4, 3, 0, 0, 0};
+  EXPECT_EQ(standing_words(tried), "every fit with it, from 4 points along its range, failed; off, as the case has it");
+  tried.value = 2.4e8;
+  tried.tried = LeftOutTry{Outcome::on, 4, 3, 3.75e8, 1234.5678, 1300};
+  EXPECT_EQ(standing_words(tried), "tried on from 4 points along its range, the best from 3.75e+08: BIC 1234.57 "
+                                   "against 1300 off");
+}
+
+TEST(Words, ARunsSettlingBandAndRevisedStartAreSaidFromTheirReasons)
+{
+  using Why = RunCase::Settling::Why;
+  RunCase rc;
+  EXPECT_EQ(settling_words(rc), "");
+  EXPECT_EQ(band_words(rc), "");
+  EXPECT_EQ(start_revision_words(rc), "");
+  rc.settling = {Why::rest_exact};
+  EXPECT_EQ(settling_words(rc), "none: a start at rest is exact");
+  rc.settling = {Why::few_cycles};
+  EXPECT_EQ(settling_words(rc),
+            "one cycle (the model's memory of its start not measured: fewer than two training cycles)");
+  rc.settling = {Why::settled, StartState::periodic, StartState::record, 3, 2.5, 0, 0, 0.1};
+  EXPECT_EQ(settling_words(rc), "3 cycles: the model's runs from the periodic start and from the record one differ "
+                                "by at most 0.1 noise units per cycle from then on (2.5 in the first)");
+  rc.settling.cycles = 1;
+  EXPECT_NE(settling_words(rc).find("1 cycle: "), std::string::npos) << settling_words(rc);
+  rc.settling = {Why::meets_later, StartState::record, StartState::periodic, 4, 0.31};
+  EXPECT_EQ(settling_words(rc), "4 cycles, half the training part: the model's runs from the record start and from "
+                                "the periodic one meet later (0.31 noise units apart in cycle 5)");
+  rc.settling = {Why::orbits_apart, StartState::record, StartState::periodic, 0, 0, 12.5, 40};
+  EXPECT_EQ(settling_words(rc), "one cycle: the model's runs from the record start and from the periodic one do not "
+                                "meet within the training part, nor come half-way together (12.5 noise units apart "
+                                "in its last cycle, 40 at most)");
+  rc.band_why = RunCase::BandWhy::below_reed;
+  rc.reed_Hz  = 1849.6;
+  EXPECT_EQ(band_words(rc), "below half the reed's natural frequency (1850 Hz): the valves flutter there in a loaded "
+                            "run");
+  rc.start_revisions.push_back({StartState::rest, StartState::record, "valve_leakage"});
+  rc.start_revisions.push_back({StartState::record, StartState::periodic, "line_inertance"});
+  EXPECT_EQ(start_revision_words(rc),
+            "rest with the case's baseline, record with valve_leakage's fit, periodic with line_inertance's fit");
 }
