@@ -6,6 +6,7 @@
 #include <string>
 
 #include "common/case_file.h"
+#include "common/real_keys.h"
 
 namespace rectify
 {
@@ -45,5 +46,9 @@ namespace rectify
     double effective_bulk_modulus_Pa() const;
     static FluidParameters from_case(const CaseFile &file);
   };
+
+  /// [fluid]'s real keys (the gas-release pressure not among those
+  /// [uncertain] may name).
+  const RealKeys<FluidParameters> &fluid_keys();
 
 } // namespace rectify

@@ -13,15 +13,23 @@ namespace rectify
     return d > 0 ? 1.0 / d : std::numeric_limits<double>::infinity();
   }
 
+  const RealKeys<ReedMaterial> &material_keys()
+  {
+    using T = ReedMaterial;
+    static const RealKeys<T> keys{
+      {"youngs_modulus_Pa", &T::youngs_modulus_Pa, Bounds::positive(), false},
+      {"poisson_ratio", &T::poisson_ratio, Bounds::open(-1.0, 0.5), false},
+      {"density_kg_per_m3", &T::density_kg_per_m3, Bounds::positive(), false},
+      {"ultimate_strength_Pa", &T::ultimate_strength_Pa, Bounds::positive(), false},
+      {"endurance_limit_Pa", &T::endurance_limit_Pa, Bounds::positive(), false}};
+    return keys;
+  }
+
   ReedMaterial ReedMaterial::from_case(const CaseFile &f)
   {
     ReedMaterial      m;
     const std::string t = "reed_material";
-    m.youngs_modulus_Pa = f.real(t, "youngs_modulus_Pa", m.youngs_modulus_Pa, Bounds::positive());
-    m.poisson_ratio     = f.real(t, "poisson_ratio", m.poisson_ratio, Bounds::open(-1.0, 0.5));
-    m.density_kg_per_m3 = f.real(t, "density_kg_per_m3", m.density_kg_per_m3, Bounds::positive());
-    m.ultimate_strength_Pa = f.real(t, "ultimate_strength_Pa", m.ultimate_strength_Pa, Bounds::positive());
-    m.endurance_limit_Pa   = f.real(t, "endurance_limit_Pa", m.endurance_limit_Pa, Bounds::positive());
+    read_reals(f, t, material_keys(), m);
     if (m.endurance_limit_Pa > m.ultimate_strength_Pa)
       throw InputError(f.where(t, "endurance_limit_Pa") + " = " + format_number(m.endurance_limit_Pa) +
                        ": above the ultimate strength (ultimate_strength_Pa = " +

@@ -6,6 +6,7 @@
 #pragma once
 
 #include "common/case_file.h"
+#include "common/real_keys.h"
 
 namespace rectify
 {
@@ -26,4 +27,6 @@ namespace rectify
     double goodman_factor(double mean_Pa, double amplitude_Pa) const;
     static ReedMaterial from_case(const CaseFile &file);
   };
+  /// [reed_material]'s keys (none among those [uncertain] may name).
+  const RealKeys<ReedMaterial> &material_keys();
 } // namespace rectify

@@ -1,6 +1,7 @@
 #include "system/parameters.h"
 
 #include "common/io.h"
+#include "common/real_keys.h"
 #include "maps/reed_map.h"
 
 #include <cmath>
@@ -32,23 +33,20 @@ namespace rectify::system
     }
   } // namespace
 
-  // Each struct's real case keys, declared once: the table drives their
-  // reading with its range (from_case), their access by name ([uncertain],
-  // real_field, for those it marks) and their place in summaries (to_json). Text and integer
-  // keys, and keys read with a condition, are read by the struct's from_case.
+  const RealKeys<SolverParameters> &solver_keys()
+  {
+    using T = SolverParameters;
+    static const RealKeys<T> keys{
+      {"relative_tolerance", &T::relative_tolerance, Bounds::closed(1e-12, 1e-2), false},
+      {"absolute_tolerance_factor", &T::absolute_tolerance_factor, Bounds::closed(1e-6, 1e6), false},
+      {"samples_per_cycle", &T::samples_per_cycle, Bounds::closed(4, 1e5), false},
+      {"max_steps_per_cycle", &T::max_steps_per_cycle, Bounds::closed(100, 1e9), false}};
+    return keys;
+  }
+
+  // Each struct's real case keys, declared once (common/real_keys.h).
   namespace
   {
-    template <typename S>
-    struct RealKey
-    {
-      const char *key;
-      double S::*field;
-      Bounds      bounds;
-      bool        uncertain = true; ///< may be named in [uncertain] (real_field)
-    };
-    template <typename S>
-    using RealKeys = std::vector<RealKey<S>>;
-
     const RealKeys<TransducerParameters> &transducer_keys()
     {
       using T = TransducerParameters;
@@ -159,29 +157,6 @@ namespace rectify::system
     }
 
     /// Reads keys [first, last) of a table into p.
-    template <typename S>
-    void read_reals(const CaseFile &f, const std::string &table, const RealKeys<S> &keys, S &p,
-                    std::size_t first = 0, std::size_t last = std::size_t(-1))
-    {
-      for (std::size_t i = first; i < std::min(last, keys.size()); ++i)
-        p.*keys[i].field = f.real(table, keys[i].key, p.*keys[i].field, keys[i].bounds);
-    }
-
-    template <typename S>
-    void put_reals(nlohmann::json &j, const RealKeys<S> &keys, const S &p)
-    {
-      for (const auto &k : keys)
-        j[k.key] = p.*k.field;
-    }
-
-    template <typename S>
-    double *find_real(const RealKeys<S> &keys, S &p, const std::string &key)
-    {
-      for (const auto &k : keys)
-        if (k.uncertain && key == k.key)
-          return &(p.*k.field);
-      return nullptr;
-    }
   } // namespace
 
   double TransducerParameters::rod_stiffness_N_per_m() const
@@ -361,15 +336,9 @@ namespace rectify::system
   {
     SolverParameters  p;
     const std::string t = "solver";
-    p.relative_tolerance =
-      f.real(t, "relative_tolerance", p.relative_tolerance, Bounds::closed(1e-12, 1e-2));
-    p.absolute_tolerance_factor = f.real(t, "absolute_tolerance_factor",
-                                         p.absolute_tolerance_factor, Bounds::closed(1e-6, 1e6));
-    p.jacobian = f.text(t, "jacobian", p.jacobian, {"analytic", "finite-difference"});
-    p.samples_per_cycle =
-      std::round(f.real(t, "samples_per_cycle", p.samples_per_cycle, Bounds::closed(4, 1e5)));
-    p.max_steps_per_cycle =
-      f.real(t, "max_steps_per_cycle", p.max_steps_per_cycle, Bounds::closed(100, 1e9));
+    read_reals(f, t, solver_keys(), p);
+    p.samples_per_cycle = std::round(p.samples_per_cycle);
+    p.jacobian          = f.text(t, "jacobian", p.jacobian, {"analytic", "finite-difference"});
     return p;
   }
 
@@ -541,21 +510,12 @@ namespace rectify::system
 
   double *SystemParameters::real_field(const std::string &table, const std::string &key)
   {
-    if (table == "fluid") // common/fluid.h
-      {
-        const std::pair<const char *, double *> fields[] = {
-          {"density_kg_per_m3", &fluid.density_kg_per_m3},
-          {"viscosity_Pa_s", &fluid.viscosity_Pa_s},
-          {"bulk_modulus_Pa", &fluid.bulk_modulus_Pa},
-          {"entrained_air_fraction", &fluid.entrained_air_fraction},
-          {"gas_heat_capacity_ratio", &fluid.gas_heat_capacity_ratio},
-          {"bias_pressure_Pa", &fluid.bias_pressure_Pa},
-          {"free_air_fraction", &fluid.free_air_fraction}};
-        for (const auto &[n, field] : fields)
-          if (key == n)
-            return field;
-        return nullptr;
-      }
+    if (table == "fluid")
+      return find_real(fluid_keys(), fluid, key);
+    if (table == "reed_material")
+      return find_real(material_keys(), material, key);
+    if (table == "solver")
+      return find_real(solver_keys(), solver, key);
     if (table == "transducer")
       return find_real(transducer_keys(), transducer, key);
     if (table == "chamber")
@@ -640,17 +600,7 @@ namespace rectify::system
   {
     using nlohmann::json;
     json j{
-      {"fluid",
-       {{"density_kg_per_m3", fluid.density_kg_per_m3},
-        {"viscosity_Pa_s", fluid.viscosity_Pa_s},
-        {"bulk_modulus_Pa", fluid.bulk_modulus_Pa},
-        {"entrained_air_fraction", fluid.entrained_air_fraction},
-        {"gas_heat_capacity_ratio", fluid.gas_heat_capacity_ratio},
-        {"bias_pressure_Pa", fluid.bias_pressure_Pa},
-        {"free_air_fraction", fluid.free_air_fraction},
-        {"free_air_law", fluid.free_air_law},
-        {"cavitation", fluid.cavitation},
-        {"cavitation_pressure_Pa", fluid.cavitation_pressure_Pa}}},
+      {"fluid", {{"free_air_law", fluid.free_air_law}, {"cavitation", fluid.cavitation}}},
       {"reed",
        {{"fluid_loading", reed.fluid_loading},
         {"film_suction_limit", reed.film_suction_limit},
@@ -661,12 +611,6 @@ namespace rectify::system
         {"second_mode_root_stress_per_opening_Pa_per_m", reed.second_mode_root_stress_per_opening_Pa_per_m},
         {"stress_source", reed.stress_source},
         {"large_deflection_opening_m", reed.large_deflection_opening_m}}},
-      {"reed_material",
-       {{"youngs_modulus_Pa", material.youngs_modulus_Pa},
-        {"poisson_ratio", material.poisson_ratio},
-        {"density_kg_per_m3", material.density_kg_per_m3},
-        {"endurance_limit_Pa", material.endurance_limit_Pa},
-        {"ultimate_strength_Pa", material.ultimate_strength_Pa}}},
       {"valves",
        {{"outlet_map_set", valves.map_set[0]},
         {"inlet_map_set", valves.map_set[1]},
@@ -675,12 +619,10 @@ namespace rectify::system
         {"out_of_range", valves.out_of_range}}},
       {"lines", {{"outlet_line_segments", lines.outlet_line_segments}}},
       {"drive", {{"waveform", drive.waveform}, {"coil_dynamics", drive.coil_dynamics}}},
-      {"solver",
-       {{"relative_tolerance", solver.relative_tolerance},
-        {"absolute_tolerance_factor", solver.absolute_tolerance_factor},
-        {"jacobian", solver.jacobian},
-        {"samples_per_cycle", solver.samples_per_cycle},
-        {"max_steps_per_cycle", solver.max_steps_per_cycle}}}};
+      {"solver", {{"jacobian", solver.jacobian}}}};
+    put_reals(j["fluid"], fluid_keys(), fluid);
+    put_reals(j["reed_material"], material_keys(), material);
+    put_reals(j["solver"], solver_keys(), solver);
     put_reals(j["transducer"], transducer_keys(), transducer);
     put_reals(j["chamber"], chamber_keys(), chamber);
     put_reals(j["reed"], reed_keys(), reed);

@@ -233,6 +233,8 @@ namespace rectify::system
     double      max_steps_per_cycle = 1e6;
     static SolverParameters from_case(const CaseFile &file);
   };
+  /// [solver]'s real keys (none among those [uncertain] may name).
+  const RealKeys<SolverParameters> &solver_keys();
 
   /// A baseline parameter the case marks as uncertain: in its [uncertain]
   /// table, "table.key" = [lower, upper] (the thesis's gaps: lines, cylinder,

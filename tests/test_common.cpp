@@ -14,6 +14,9 @@
 #include "app/case_loading.h"
 #include "system/parameters.h"
 
+#include <tuple>
+#include <vector>
+
 using namespace rectify;
 
 namespace
@@ -173,4 +176,41 @@ TEST(Plot, APanelWithoutPointsIsDrawnEmptyAndTheFigureStillWritten)
   EXPECT_EQ(script.find("using ($1*1):($3*1)"), std::string::npos) << script; // the blank column is not plotted
   EXPECT_NE(script.find("using ($1*1):($2*1)"), std::string::npos) << script;
   std::filesystem::remove_all(dir);
+}
+
+TEST(CaseFile, EachRealKeyIsReadReportedAndNamedFromItsOneTable)
+{
+  // a value for every real key of [fluid], [reed_material] and [solver]
+  // (inside its range, not its default): read into the struct, reported in
+  // to_json, reachable by [uncertain] exactly where the table says so
+  std::string text;
+  std::vector<std::tuple<std::string, std::string, double, bool>> given;
+  const auto  table = [&](const std::string &name, const auto &keys, const auto &defaults) {
+    text += "[" + name + "]\n";
+    for (const auto &k : keys)
+      {
+        const double d = defaults.*k.field, v = d == 0.0 ? 0.01 : k.bounds.contains(1.01 * d) ? 1.01 * d : 0.99 * d;
+        ASSERT_TRUE(k.bounds.contains(v)) << name << "." << k.key;
+        text += std::string(k.key) + " = " + format_number(v) + "\n";
+        given.emplace_back(name, k.key, std::stod(format_number(v)), k.uncertain);
+      }
+  };
+  table("fluid", fluid_keys(), FluidParameters{});
+  table("reed_material", material_keys(), ReedMaterial{});
+  table("solver", system::solver_keys(), system::SolverParameters{});
+  auto       p    = system::SystemParameters::from_case(parse(text));
+  const auto json = p.to_json();
+  for (const auto &[name, key, v, uncertain] : given)
+    {
+      EXPECT_EQ(json[name][key].get<double>(), v) << name << "." << key;
+      double *field = p.real_field(name, key);
+      EXPECT_EQ(field != nullptr, uncertain) << name << "." << key;
+      if (field)
+        EXPECT_EQ(*field, v) << name << "." << key;
+    }
+  EXPECT_EQ(json["solver"]["jacobian"], "analytic"); // the text keys beside them
+  EXPECT_EQ(json["fluid"]["cavitation"], "discrete-cavity");
+  // a value outside a table's range is refused with the key named
+  expect_input_error([&] { (void)system::SystemParameters::from_case(parse("[solver]\nrelative_tolerance = 0.5\n")); },
+                     {"[solver]", "relative_tolerance", "0.5"});
 }
