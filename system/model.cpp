@@ -73,9 +73,7 @@ namespace rectify::system
     V_h    = A_po * p.cylinder.high_side_fraction * p.cylinder.wetted_length_m;
     V_l    = A_po * (1.0 - p.cylinder.high_side_fraction) * p.cylinder.wetted_length_m;
     R_coil          = p.transducer.coil_resistance_ohm;
-    const double w2 = 2.0 * M_PI * p.reed.second_mode_frequency_Hz;
-    k_r2 = reed.mass * w2 * w2;
-    b_r2 = 2.0 * p.reed.damping_ratio * std::sqrt(k_r2 * reed.mass);
+    second_mode     = ReedSecondMode::make(p, reed);
     components = make_components(p, scenario, *this);
     for (const auto &component : components)
       component->adjust(*this);
@@ -141,7 +139,6 @@ namespace rectify::system
                          parameters.fluid.cavitates(),
                          parameters.reed.stress_source};
     stress1_          = parameters.reed.root_stress_per_opening_Pa_per_m;
-    stress2_          = parameters.reed.second_mode_root_stress_per_opening_Pa_per_m;
     stress_extrema_   = parameters.reed.stop == "on" || parameters.fluid.cavitates();
     if (parameters.fluid.cavitates())
       {
@@ -156,7 +153,7 @@ namespace rectify::system
     seat_film_           = parameters.reed.seat_film_m;
     suction_limit_       = parameters.reed.film_suction_limit == "cavitation";
     cavitation_pressure_ = parameters.reed.film_cavitation_pressure_Pa;
-    if (c_.k_r2 > 0)
+    if (c_.second_mode)
       throw InputError("[reed] fluid_loading = \"map\" takes the reed's first mode only; second_mode_frequency_Hz = " +
                        format_number(parameters.reed.second_mode_frequency_Hz) + " is not supported with it");
     for (std::size_t v = 0; v < 2; ++v)
@@ -343,10 +340,9 @@ namespace rectify::system
   double Model::root_stress(std::size_t v, std::span<const double> y) const
   {
     const std::size_t ix = v == 0 ? state::outlet_reed_x : state::inlet_reed_x;
-    if (c_.k_r2 == 0.0)
+    if (!c_.second_mode)
       return stress1_ * y[ix];
-    const std::size_t ix2 = v == 0 ? state::outlet_reed2_x : state::inlet_reed2_x;
-    return stress1_ * y[ix] + stress2_ * y[ix2];
+    return c_.second_mode->stress(v, y, stress1_);
   }
 
   double Model::root_stress_rate(std::size_t v, std::span<const double> y) const
@@ -354,10 +350,9 @@ namespace rectify::system
     const std::size_t ix = v == 0 ? state::outlet_reed_x : state::inlet_reed_x;
     if (valves_ == ValveModel::ideal)
       return 0.0;
-    if (c_.k_r2 == 0.0)
+    if (!c_.second_mode)
       return closed_[v] || at_stop_[v] ? 0.0 : stress1_ * y[ix + 1];
-    const std::size_t ix2 = v == 0 ? state::outlet_reed2_x : state::inlet_reed2_x;
-    return stress1_ * y[ix + 1] + stress2_ * y[ix2 + 1];
+    return c_.second_mode->stress_rate(v, y, stress1_);
   }
 
   void Model::log_event(double t, std::size_t v, ReedEvent::Kind kind, double velocity, std::span<const double> y)
@@ -374,15 +369,9 @@ namespace rectify::system
     return y;
   }
 
-  double Model::seat_reaction(double force, double x1, double v1, double x2, double v2) const
-  {
-    // m (a1 + a2) = 2 (F + reaction) - b1 v1 - k1 x1 - b2 v2 - k2 x2 = 0
-    return -force + 0.5 * (c_.reed.damping * v1 + c_.reed.stiffness * x1 + c_.b_r2 * v2 + c_.k_r2 * x2);
-  }
-
   bool Model::needs_difference_jacobian() const
   {
-    return !components_.empty() || c_.k_r2 > 0 || loading_;
+    return !components_.empty() || c_.second_mode || loading_;
   }
 
   int Model::max_bdf_order() const
@@ -396,10 +385,9 @@ namespace rectify::system
 
   double Model::opening(std::size_t v, std::span<const double> y) const
   {
-    if (c_.k_r2 == 0.0) // one mode: the analytic Jacobian's case
+    if (!c_.second_mode) // one mode: the analytic Jacobian's case
       return y[v == 0 ? state::outlet_reed_x : state::inlet_reed_x];
-    return v == 0 ? y[state::outlet_reed_x] + y[state::outlet_reed2_x] :
-                    y[state::inlet_reed_x] + y[state::inlet_reed2_x];
+    return ReedSecondMode::tip(v, y);
   }
 
   double Model::current_A(double t, std::span<const double> y) const
@@ -778,20 +766,18 @@ namespace rectify::system
     for (std::size_t v = 0; v < 2; ++v)
       {
         const std::size_t ix  = v == 0 ? outlet_reed_x : inlet_reed_x;
-        const std::size_t ix2 = v == 0 ? outlet_reed2_x : inlet_reed2_x;
+        const std::size_t ix2 = ReedSecondMode::x_state(v);
         if (ydot.size() > ix2 + 1)
           ydot[ix2] = ydot[ix2 + 1] = 0.0;
         const bool held = closed_[v] || at_stop_[v];
-        if (valves_ == ValveModel::ideal || (held && c_.k_r2 == 0.0))
+        const auto &two = c_.second_mode;
+        if (valves_ == ValveModel::ideal || (held && !two))
           {
             ydot[ix] = ydot[ix + 1] = 0.0; // on the seat or the stop: held by its reaction
             continue;
           }
-        // Two modes: the seat holds the tip (x1 + x2 = 0), not the reed: its
-        // reaction acts on both modes (tip-normalised, equal modal masses)
-        // and keeps the tip's acceleration at zero, while the modes'
-        // difference rings as the tip-pinned reed.
-        const double reaction = held ? seat_reaction(force[v], y[ix], y[ix + 1], y[ix2], y[ix2 + 1]) : 0.0;
+        // Two modes: a held tip's reaction acts on both (reed_second_mode.h)
+        const double reaction = held ? two->seat_reaction(c_.reed, force[v], v, y) : 0.0;
         ydot[ix] = y[ix + 1];
         if (const auto &l = f.loading[v])
           { // Lagrange with the mass M(x) = (m_r + m_a(x)) / gamma: M x'' + M'(x) x'^2 / 2 = F - b_s x' - F_film - k x,
@@ -803,11 +789,8 @@ namespace rectify::system
           }
         else
           ydot[ix + 1] = reed_acceleration(c_.reed, y[ix], y[ix + 1], force[v] + reaction);
-        if (c_.k_r2 > 0)
-          {
-            ydot[ix2]     = y[ix2 + 1];
-            ydot[ix2 + 1] = (force[v] + reaction - c_.b_r2 * y[ix2 + 1] - c_.k_r2 * y[ix2]) / c_.reed.mass;
-          }
+        if (two)
+          two->rhs(v, y, force[v] + reaction, c_.reed.mass, ydot);
       }
 
     // Compliances, with the free air's pressure dependence.
@@ -839,7 +822,7 @@ namespace rectify::system
     // two modes), the reeds' velocities with fluid loading (displaced flow,
     // film), and the outlet line's first node and last segment.
     std::vector<std::size_t> flow{chamber_p, accumulator_p, high_p, low_p, outlet_reed_x, inlet_reed_x};
-    if (c_.k_r2 > 0)
+    if (c_.second_mode)
       flow.insert(flow.end(), {outlet_reed2_x, inlet_reed2_x});
     if (loading_)
       flow.insert(flow.end(), {outlet_reed_v, inlet_reed_v});
@@ -863,14 +846,8 @@ namespace rectify::system
         // force, loading, film, the seat's reaction on both modes
         r[ix + 1] = with_flows({ix, ix + 1});
       }
-    if (n > outlet_reed2_x)
-      for (std::size_t v = 0; v < 2; ++v)
-        {
-          const std::size_t ix = v == 0 ? outlet_reed_x : inlet_reed_x, ix2 = v == 0 ? outlet_reed2_x : inlet_reed2_x;
-          r[ix + 1].insert(r[ix + 1].end(), {ix2, ix2 + 1});
-          r[ix2]     = {ix2 + 1};
-          r[ix2 + 1] = with_flows({ix, ix + 1, ix2, ix2 + 1});
-        }
+    if (n > outlet_reed2_x) // its rows with any effect on (0 where it is off)
+      ReedSecondMode::reads(r, flow);
     r[chamber_p]     = with_flows({piston_v});
     r[accumulator_p] = flow;
     r[high_p]        = with_flows({actuator_v});
@@ -998,12 +975,12 @@ namespace rectify::system
             continue;
           }
         const double      F   = v == 0 ? f.outlet_force : f.inlet_force;
-        const std::size_t ix2 = v == 0 ? state::outlet_reed2_x : state::inlet_reed2_x;
-        const double      R   = c_.k_r2 > 0 ? seat_reaction(F, y[ix], y[ix + 1], y[ix2], y[ix2 + 1]) : 0.0;
+        const auto       &two = c_.second_mode;
+        const double      R   = two ? two->seat_reaction(c_.reed, F, v, y) : 0.0;
         if (at_stop_[v]) // held: leaves when the stop would have to pull
-          g[2 * v] = c_.k_r2 > 0 ? reed_lift_force - R : stop_root(true, y[ix], stop_lift_, F - c_.reed.stiffness * stop_lift_);
+          g[2 * v] = two ? reed_lift_force - R : stop_root(true, y[ix], stop_lift_, F - c_.reed.stiffness * stop_lift_);
         else // seated with two modes: lifts off when the seat would have to pull
-          g[2 * v] = reed_root(closed_[v], closed_[v] ? y[ix] : opening(v, y), closed_[v] && c_.k_r2 > 0 ? -R : F);
+          g[2 * v] = reed_root(closed_[v], closed_[v] ? y[ix] : opening(v, y), closed_[v] && two ? -R : F);
         if (!closed_[v] && !at_stop_[v] && stop_lift_ < std::numeric_limits<double>::infinity())
           g[2 * v + 1] = stop_root(false, opening(v, y), stop_lift_, 0.0);
         if (record_events_ && stress_extrema_)
@@ -1028,7 +1005,7 @@ namespace rectify::system
             changed = true;
             if (valves_ == ValveModel::ideal)
               closed_[v] = !closed_[v];
-            else if (c_.k_r2 > 0)
+            else if (c_.second_mode)
               two_mode_contact_event(v, t, y, stop && !contact);
             else
               contact_event(v, t, y, stop && !contact);
@@ -1078,14 +1055,13 @@ namespace rectify::system
 
   void Model::two_mode_contact_event(std::size_t v, double t, std::span<double> y, bool stop_impact)
   {
-    // Two modes: seat and stop hold the tip, not the reed. At impact an
-    // impulse on the tip (equal on both tip-normalised modes of equal modal
-    // mass) sets the tip's velocity to its rebound; the modes' difference
-    // keeps ringing while the tip is held (rhs). It leaves when its
-    // contact would have to pull (roots).
-    const std::size_t ix = v == 0 ? state::outlet_reed_x : state::inlet_reed_x;
-    const std::size_t ix2 = v == 0 ? state::outlet_reed2_x : state::inlet_reed2_x;
-    double &x1 = y[ix], &v1 = y[ix + 1], &x2 = y[ix2], &v2 = y[ix2 + 1];
+    // Two modes: seat and stop hold the tip, not the reed (reed_second_mode.h).
+    // At impact the tip rebounds; the modes' difference keeps ringing while
+    // the tip is held (rhs). It leaves when its contact would have to pull
+    // (roots).
+    const auto       &two = *c_.second_mode;
+    const std::size_t ix  = ReedSecondMode::first(v), ix2 = ReedSecondMode::x_state(v);
+    double           &x1 = y[ix], &x2 = y[ix2];
     if (closed_[v])
       {
         x1 += reed_seat_tolerance - (x1 + x2); // a hair above the seat (reed.h)
@@ -1100,19 +1076,16 @@ namespace rectify::system
       }
     const double level = stop_impact ? stop_lift_ : 0.0;
     ++(stop_impact ? n_stop_impacts_ : n_impacts_);
-    const double s = x1 + x2 - level;
-    x1 -= 0.5 * s;
-    x2 -= 0.5 * s;
-    const double tip_v = v1 + v2;
+    double       rebound = 0;
+    const double tip_v   = ReedSecondMode::impact(v, y, level, [&](double tip) {
+      return rebound = stop_impact ? -stop_restitution_ * std::max(tip, 0.0) : c_.reed.restitution * std::max(-tip, 0.0);
+    });
+    // (the event's opening and stress are the positions', set before the rebound)
     log_event(t, v, stop_impact ? ReedEvent::stop_impact : ReedEvent::seat_impact, stop_impact ? tip_v : -tip_v, y);
-    const double rebound = stop_impact ? -stop_restitution_ * std::max(tip_v, 0.0) :
-                                         c_.reed.restitution * std::max(-tip_v, 0.0);
-    v1 += 0.5 * (rebound - tip_v);
-    v2 += 0.5 * (rebound - tip_v);
     if (std::abs(rebound) >= 1e-6)
       return;
     const Flows  f = flows(y);
-    const double R = seat_reaction(v == 0 ? f.outlet_force : f.inlet_force, x1, v1, x2, v2);
+    const double R = two.seat_reaction(c_.reed, v == 0 ? f.outlet_force : f.inlet_force, v, y);
     if (stop_impact ? R <= reed_lift_force : -R <= reed_lift_force)
       (stop_impact ? at_stop_[v] : closed_[v]) = true; // held
     else

@@ -2,7 +2,7 @@
 // output cylinder: thesis eqs. 3.1-3.36, with the corrections listed in
 // docs/system-model.md (each marked "correction" below).
 //
-// States (see `namespace state`):
+// States (system/states.h):
 //   mechanics  x_p, v_p (piston + rod), x_f, v_f (chamber fluid mass),
 //              x_act, v_act (output piston and load),
 //              x_ro, v_ro, x_ri, v_ri (outlet and inlet reed tips, >= 0)
@@ -46,6 +46,8 @@
 #include "system/integrator.h"
 #include "system/parameters.h"
 #include "system/reed.h"
+#include "system/states.h"
+#include "system/components/reed_second_mode.h"
 
 namespace rectify::system
 {
@@ -69,46 +71,6 @@ namespace rectify::system
   std::string to_string(ValveModel v);
   std::string to_string(Scenario s);
 
-  namespace state
-  {
-    enum : std::size_t
-    {
-      piston_x,
-      piston_v,
-      fluid_x,
-      fluid_v,
-      actuator_x,
-      actuator_v,
-      outlet_reed_x,
-      outlet_reed_v,
-      inlet_reed_x,
-      inlet_reed_v,
-      chamber_p,
-      accumulator_p,
-      high_p,
-      low_p,
-      outlet_volume,
-      inlet_volume,
-      outlet_pressure_integral,
-      // states of the optional effects (docs/diagnosis.md); constant 0 when off
-      line_flow,      ///< flow in the outlet line, with line inertance
-      coil_current,   ///< coil current, with a voltage drive and coil dynamics
-      outlet_reed2_x, ///< second bending mode of each reed
-      outlet_reed2_v,
-      inlet_reed2_x,
-      inlet_reed2_v,
-      line_node_p,    ///< pressure between the outlet valve and the line, with line inertance
-      count
-    };
-    /// States of the thesis model alone: a model with no effect on has only
-    /// these (the extra states would dilute CVODE's error norm).
-    inline constexpr std::size_t thesis_count = outlet_pressure_integral + 1;
-    /// An inertial outlet line of n segments ([lines] outlet_line_segments):
-    /// segment k's flow and the pressure at its upstream node (node 0: between
-    /// the valve and the line); segments 1.. follow the fixed states.
-    inline std::size_t line_segment_flow(std::size_t k) { return k == 0 ? line_flow : count + 2 * (k - 1); }
-    inline std::size_t line_segment_node(std::size_t k) { return k == 0 ? line_node_p : count + 2 * (k - 1) + 1; }
-  } // namespace state
 
   /// Model constants derived from the parameters (eqs. 3.2-3.5, 3.28, 3.29,
   /// Tables 3.5-3.6). Damping coefficients from damping ratios: b = 2 zeta sqrt(k m)
@@ -127,7 +89,8 @@ namespace rectify::system
     maps::OutOfRange out_of_range;
     double V_ch, V_h, V_l;         ///< oil volumes of the chamber, high and low sides
     double R_coil;                 ///< the coil's resistance: a voltage drive's current V / R
-    double k_r2, b_r2;             ///< second reed mode (k_r2 = 0: off), held in the model's core
+    /// Each reed's second bending mode (system/components/reed_second_mode.h); none: off
+    std::optional<ReedSecondMode> second_mode;
     /// The components the case switches on (system/component.h), made
     /// from the thesis's constants; their adjust()s are applied.
     Components components;
@@ -250,9 +213,6 @@ namespace rectify::system
     /// The highest BDF order the integrator should use (0: no limit): the
     /// lowest its components ask for (Component::max_bdf_order).
     int                 max_bdf_order() const;
-    /// The seat's reaction on a seated two-mode reed that keeps its tip at
-    /// the seat (force: the opening force; x, v: the modes' tip coordinates).
-    double              seat_reaction(double force, double x1, double v1, double x2, double v2) const;
     std::vector<double> initial_state() const;
     /// Typical magnitude of each state, for absolute tolerances.
     std::vector<double> typical_sizes() const;
@@ -366,7 +326,7 @@ namespace rectify::system
     std::size_t           n_impacts_ = 0, n_stop_impacts_ = 0;
     double                stop_lift_ = std::numeric_limits<double>::infinity();
     double                stop_restitution_ = 0.0;
-    double                stress1_ = 0.0, stress2_ = 0.0; ///< root stress per unit opening of each mode
+    double                stress1_ = 0.0; ///< root stress per unit opening of the first mode
     bool                  record_events_ = false;
     bool                  stress_extrema_ = false; ///< the stress's extrema as roots (not the thesis's model)
     std::vector<ReedEvent> events_;
