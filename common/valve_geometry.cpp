@@ -497,6 +497,120 @@ namespace rectify
     return j;
   }
 
+  namespace
+  {
+    /// The reed as a rectangle or as an outline, the ports as one circle or
+    /// as [[port]] tables: never both, nor an outline's keys without one.
+    void check_either_or(const CaseFile &f, const std::string &t, bool outline, std::size_t n_ports)
+    {
+      if (outline)
+        for (const std::string key : {"reed_length_m", "reed_width_m"})
+          if (f.has(t, key))
+            throw InputError(f.where(t, key) + ": give the reed either as reed_length_m and reed_width_m (a "
+                                               "rectangle) or as its outline (reed_outline_m or reed_outline_csv), not both");
+      if (!outline)
+        for (const std::string key : {"reed_fillet_radius_m", "reed_fillet_radii_m", "clamp_line_m"})
+          if (f.has(t, key))
+            throw InputError(f.where(t, key) + ": applies to a reed given as its outline (reed_outline_m or "
+                                               "reed_outline_csv)");
+      if (n_ports > 0)
+        for (const std::string key : {"port_diameter_m", "port_center_x_m"})
+          if (f.has(t, key))
+            throw InputError(f.where(t, key) + ": give the ports either as port_diameter_m and port_center_x_m (one "
+                                               "circle) or as [[port]] tables, not both");
+    }
+
+    /// A reed given as its outline: counter-clockwise, its corners' fillet
+    /// radii, its clamp line (as given, else the outline's edge on x = 0).
+    void read_reed_outline(const CaseFile &f, const std::string &t, ValveGeometry &g)
+    {
+      g.reed_outline_m = read_outline(f, t, "reed_outline");
+      if (f.has(t, "reed_fillet_radii_m"))
+        g.reed_fillet_radii_m = f.reals(t, "reed_fillet_radii_m", {}, Bounds::non_negative());
+      // Counter-clockwise from here on (a simple outline only: check_outline
+      // names a crossing in the file's order); the radii follow their corners.
+      const auto &c = g.reed_outline_m;
+      if (c.size() >= 3 && !geometry::first_self_intersection(c) && geometry::signed_area(c) < 0)
+        {
+          std::reverse(g.reed_outline_m.begin(), g.reed_outline_m.end());
+          std::reverse(g.reed_fillet_radii_m.begin(), g.reed_fillet_radii_m.end());
+        }
+      if (f.has(t, "reed_fillet_radii_m") && f.has(t, "reed_fillet_radius_m"))
+        throw InputError(f.where(t, "reed_fillet_radius_m") +
+                         ": give one radius for every corner (reed_fillet_radius_m) or one per corner "
+                         "(reed_fillet_radii_m), not both");
+      f.declare(t, "reed_fillet_radii_m");
+      if (!f.has(t, "reed_fillet_radii_m"))
+        {
+          const double r = f.real(t, "reed_fillet_radius_m", 0.0, Bounds::non_negative());
+          g.reed_fillet_radii_m.assign(g.reed_outline_m.size(), r);
+          // One radius for all: the clamp line's two corners stay sharp.
+          const double tol = wall_tolerance(g.reed_outline_m);
+          for (std::size_t i = 0; i < g.reed_outline_m.size(); ++i)
+            if (std::abs(g.reed_outline_m[i][0]) <= tol)
+              g.reed_fillet_radii_m[i] = 0;
+        }
+      else
+        f.declare(t, "reed_fillet_radius_m");
+      // The clamp line: as given, else the outline's edge on x = 0.
+      const auto clamp = f.points(t, "clamp_line_m", Bounds());
+      if (!clamp.empty())
+        {
+          if (clamp.size() != 2 || clamp[0][0] != 0.0 || clamp[1][0] != 0.0 || clamp[0][1] == clamp[1][1])
+            throw InputError(f.where(t, "clamp_line_m") +
+                             ": expected two different points on x = 0, [[0, y0], [0, y1]] (the clamp line lies "
+                             "on the pocket's wall)");
+          g.clamp_y_m = {std::min(clamp[0][1], clamp[1][1]), std::max(clamp[0][1], clamp[1][1])};
+        }
+      else
+        {
+          double       lo = std::numeric_limits<double>::infinity(), hi = -lo;
+          const double tol = wall_tolerance(g.reed_outline_m);
+          for (const XY &p : g.reed_outline_m)
+            if (std::abs(p[0]) <= tol)
+              lo = std::min(lo, p[1]), hi = std::max(hi, p[1]);
+          g.clamp_y_m = {lo, hi};
+        }
+    }
+
+    /// [[port]] table k: a circle (center_m, diameter_m) or a polygon.
+    Port read_port(const CaseFile &f, std::size_t k, const ValveGeometry &g)
+    {
+      const Bounds pos = Bounds::positive();
+      const std::string pt = port_table(k);
+      Port              p;
+      p.length_m         = f.real(pt, "length_m", g.port_length_m, pos);
+      const bool circle  = f.has(pt, "diameter_m") || f.has(pt, "center_m");
+      const bool polygon = f.has(pt, "outline_m") || f.has(pt, "outline_csv");
+      if (circle == polygon)
+        throw InputError(f.where(pt, circle ? "outline_m" : "diameter_m") +
+                         ": a port is a circle (center_m and diameter_m) or a polygon (outline_m or outline_csv)" +
+                         (circle ? ", not both" : ""));
+      f.declare(pt, "diameter_m"), f.declare(pt, "center_m"), f.declare(pt, "outline_m"), f.declare(pt, "outline_csv");
+      if (circle)
+        {
+          p.circular = true;
+          for (const std::string key : {"diameter_m", "center_m"})
+            if (!f.has(pt, key))
+              throw InputError(f.where(pt, key) + ": missing; a circular port needs center_m = [x, y] and diameter_m");
+          p.diameter_m      = f.real(pt, "diameter_m", 0.0, pos);
+          const auto centre = f.reals(pt, "center_m", {}, Bounds());
+          if (centre.size() != 2)
+            throw InputError(f.where(pt, "center_m") + ": expected one point [x, y], got " +
+                             std::to_string(centre.size()) + " numbers");
+          p.center_m = {centre[0], centre[1]};
+        }
+      else
+        {
+          p.circular  = false;
+          p.outline_m = read_outline(f, pt, "outline");
+          if (p.outline_m.size() >= 3 && !geometry::first_self_intersection(p.outline_m))
+            p.outline_m = counter_clockwise(p.outline_m);
+        }
+      return p;
+    }
+  } // namespace
+
   ValveGeometry ValveGeometry::from_case(const CaseFile &f)
   {
     ValveGeometry     g;
@@ -504,21 +618,7 @@ namespace rectify
     const Bounds      pos = Bounds::positive();
     const bool outline = f.has(t, "reed_outline_m") || f.has(t, "reed_outline_csv");
     const std::size_t n_ports = f.table_count("port");
-    if (outline)
-      for (const std::string key : {"reed_length_m", "reed_width_m"})
-        if (f.has(t, key))
-          throw InputError(f.where(t, key) + ": give the reed either as reed_length_m and reed_width_m (a "
-                                             "rectangle) or as its outline (reed_outline_m or reed_outline_csv), not both");
-    if (!outline)
-      for (const std::string key : {"reed_fillet_radius_m", "reed_fillet_radii_m", "clamp_line_m"})
-        if (f.has(t, key))
-          throw InputError(f.where(t, key) + ": applies to a reed given as its outline (reed_outline_m or "
-                                             "reed_outline_csv)");
-    if (n_ports > 0)
-      for (const std::string key : {"port_diameter_m", "port_center_x_m"})
-        if (f.has(t, key))
-          throw InputError(f.where(t, key) + ": give the ports either as port_diameter_m and port_center_x_m (one "
-                                             "circle) or as [[port]] tables, not both");
+    check_either_or(f, t, outline, n_ports);
     g.reed_thickness_m = f.real(t, "reed_thickness_m", g.reed_thickness_m, pos);
     g.port_length_m    = f.real(t, "port_length_m", g.port_length_m, pos);
     g.pocket_length_m  = f.real(t, "pocket_length_m", g.pocket_length_m, pos);
@@ -538,53 +638,7 @@ namespace rectify
       }
     else
       {
-        g.reed_outline_m = read_outline(f, t, "reed_outline");
-        if (f.has(t, "reed_fillet_radii_m"))
-          g.reed_fillet_radii_m = f.reals(t, "reed_fillet_radii_m", {}, Bounds::non_negative());
-        // Counter-clockwise from here on (a simple outline only: check_outline
-        // names a crossing in the file's order); the radii follow their corners.
-        const auto &c = g.reed_outline_m;
-        if (c.size() >= 3 && !geometry::first_self_intersection(c) && geometry::signed_area(c) < 0)
-          {
-            std::reverse(g.reed_outline_m.begin(), g.reed_outline_m.end());
-            std::reverse(g.reed_fillet_radii_m.begin(), g.reed_fillet_radii_m.end());
-          }
-        if (f.has(t, "reed_fillet_radii_m") && f.has(t, "reed_fillet_radius_m"))
-          throw InputError(f.where(t, "reed_fillet_radius_m") +
-                           ": give one radius for every corner (reed_fillet_radius_m) or one per corner "
-                           "(reed_fillet_radii_m), not both");
-        f.declare(t, "reed_fillet_radii_m");
-        if (!f.has(t, "reed_fillet_radii_m"))
-          {
-            const double r = f.real(t, "reed_fillet_radius_m", 0.0, Bounds::non_negative());
-            g.reed_fillet_radii_m.assign(g.reed_outline_m.size(), r);
-            // One radius for all: the clamp line's two corners stay sharp.
-            const double tol = wall_tolerance(g.reed_outline_m);
-            for (std::size_t i = 0; i < g.reed_outline_m.size(); ++i)
-              if (std::abs(g.reed_outline_m[i][0]) <= tol)
-                g.reed_fillet_radii_m[i] = 0;
-          }
-        else
-          f.declare(t, "reed_fillet_radius_m");
-        // The clamp line: as given, else the outline's edge on x = 0.
-        const auto clamp = f.points(t, "clamp_line_m", Bounds());
-        if (!clamp.empty())
-          {
-            if (clamp.size() != 2 || clamp[0][0] != 0.0 || clamp[1][0] != 0.0 || clamp[0][1] == clamp[1][1])
-              throw InputError(f.where(t, "clamp_line_m") +
-                               ": expected two different points on x = 0, [[0, y0], [0, y1]] (the clamp line lies "
-                               "on the pocket's wall)");
-            g.clamp_y_m = {std::min(clamp[0][1], clamp[1][1]), std::max(clamp[0][1], clamp[1][1])};
-          }
-        else
-          {
-            double       lo = std::numeric_limits<double>::infinity(), hi = -lo;
-            const double tol = wall_tolerance(g.reed_outline_m);
-            for (const XY &p : g.reed_outline_m)
-              if (std::abs(p[0]) <= tol)
-                lo = std::min(lo, p[1]), hi = std::max(hi, p[1]);
-            g.clamp_y_m = {lo, hi};
-          }
+        read_reed_outline(f, t, g);
       }
 
     if (n_ports == 0)
@@ -594,37 +648,7 @@ namespace rectify
       }
     for (std::size_t k = 0; k < n_ports; ++k)
       {
-        const std::string pt = port_table(k);
-        Port              p;
-        p.length_m         = f.real(pt, "length_m", g.port_length_m, pos);
-        const bool circle  = f.has(pt, "diameter_m") || f.has(pt, "center_m");
-        const bool polygon = f.has(pt, "outline_m") || f.has(pt, "outline_csv");
-        if (circle == polygon)
-          throw InputError(f.where(pt, circle ? "outline_m" : "diameter_m") +
-                           ": a port is a circle (center_m and diameter_m) or a polygon (outline_m or outline_csv)" +
-                           (circle ? ", not both" : ""));
-        f.declare(pt, "diameter_m"), f.declare(pt, "center_m"), f.declare(pt, "outline_m"), f.declare(pt, "outline_csv");
-        if (circle)
-          {
-            p.circular = true;
-            for (const std::string key : {"diameter_m", "center_m"})
-              if (!f.has(pt, key))
-                throw InputError(f.where(pt, key) + ": missing; a circular port needs center_m = [x, y] and diameter_m");
-            p.diameter_m      = f.real(pt, "diameter_m", 0.0, pos);
-            const auto centre = f.reals(pt, "center_m", {}, Bounds());
-            if (centre.size() != 2)
-              throw InputError(f.where(pt, "center_m") + ": expected one point [x, y], got " +
-                               std::to_string(centre.size()) + " numbers");
-            p.center_m = {centre[0], centre[1]};
-          }
-        else
-          {
-            p.circular  = false;
-            p.outline_m = read_outline(f, pt, "outline");
-            if (p.outline_m.size() >= 3 && !geometry::first_self_intersection(p.outline_m))
-              p.outline_m = counter_clockwise(p.outline_m);
-          }
-        g.port_list.push_back(p);
+        g.port_list.push_back(read_port(f, k, g));
       }
 
     // The shorthand's fields for an outline: its bounding box, its first port.

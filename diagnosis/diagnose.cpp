@@ -491,8 +491,6 @@ namespace rectify::diagnosis
       auto            near_made = predictions_[k];
       const auto      near_left = calibrate_left_out(near_ev, near_with, near_made, x_.cores);
       rr_.near_miss = {fitted_[k].effect,
-                       near_judged_.closed,
-                       rule_name(near_judged_.failed),
                        near_judged_,
                        scores(fitted_[k]),
                        scores(fitted_[0]),

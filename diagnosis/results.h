@@ -191,9 +191,9 @@ namespace rectify::diagnosis
     struct NearMiss
     {
       std::string                    effect;
-      double                         closed = 0; ///< share of the gap it closed without them
-      std::string                    missed_by;  ///< the rule it failed without them: "gap" or "feature"
-      Judgement                      judgement;  ///< without them, its scores and none's
+      /// without them, its scores and none's: the share of the gap it
+      /// closed (judgement.closed) and the rule it failed (judgement.failed)
+      Judgement                      judgement;
       FitScores                      candidate, baseline;
       /// none's and its fits without them (the candidates' table holds the
       /// fits with them where it was named)

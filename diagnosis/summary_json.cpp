@@ -112,8 +112,8 @@ namespace rectify::diagnosis
       json near_miss; // null: not tried
       if (!rr.near_miss.effect.empty())
         near_miss = {{"effect", rr.near_miss.effect},
-                     {"gap_closed_without", rr.near_miss.closed},
-                     {"missed_by", rr.near_miss.missed_by},
+                     {"gap_closed_without", rr.near_miss.judgement.closed},
+                     {"missed_by", rule_name(rr.near_miss.judgement.failed)},
                      {"reason_without", near_miss_reason(rr)},
                      {"none_without", {{"bic", rr.near_miss.none_bic}, {"rms_train", rr.near_miss.none_rms_train}}},
                      {"effect_without",

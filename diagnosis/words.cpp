@@ -472,7 +472,7 @@ namespace rectify::diagnosis
   {
     char buf[160];
     std::snprintf(buf, sizeof buf, "%s, the nearest miss (%.0f %% of the gap closed%s)", m.effect.c_str(),
-                  100 * m.closed, m.judgement.failed == Rule::feature ? ", too little of the dominant feature" : "");
+                  100 * m.judgement.closed, m.judgement.failed == Rule::feature ? ", too little of the dominant feature" : "");
     return std::string("the parameters the case leaves out, tried on at none's fit and at ") + buf +
            ": at none's, " + left_out_words(m.at_none) + "; at " + m.effect + "'s, " + left_out_words(m.at_effect);
   }
@@ -547,7 +547,7 @@ namespace rectify::diagnosis
     if (rr.near_miss.named)
       s += "; named after its fit and none's were made again with the parameters the case leaves out (it was the "
            "nearest miss without them: " +
-           std::string(rr.near_miss.missed_by == "feature" ? "it explained too little of the dominant feature" :
+           std::string(rr.near_miss.judgement.failed == Rule::feature ? "it explained too little of the dominant feature" :
                                                              "it closed too little of the gap") +
            ")";
     return s;

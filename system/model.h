@@ -47,7 +47,7 @@
 #include "system/parameters.h"
 #include "system/reed.h"
 #include "system/states.h"
-#include "system/components/reed_second_mode.h"
+#include "system/reed_second_mode.h"
 
 namespace rectify::system
 {
@@ -89,7 +89,7 @@ namespace rectify::system
     maps::OutOfRange out_of_range;
     double V_ch, V_h, V_l;         ///< oil volumes of the chamber, high and low sides
     double R_coil;                 ///< the coil's resistance: a voltage drive's current V / R
-    /// Each reed's second bending mode (system/components/reed_second_mode.h); none: off
+    /// Each reed's second bending mode (system/reed_second_mode.h); none: off
     std::optional<ReedSecondMode> second_mode;
     /// The components the case switches on (system/component.h), made
     /// from the thesis's constants; their adjust()s are applied.

@@ -172,8 +172,6 @@ TEST(Words, TheDecisionTellsEachJudgingStepInTurn)
   const auto near = judge(weak, none, [] { return taken(); }, rules);
   ASSERT_EQ(near.failed, Rule::gap);
   rr.near_miss.effect    = "valve_leakage";
-  rr.near_miss.closed    = near.closed;
-  rr.near_miss.missed_by = rule_name(near.failed);
   rr.near_miss.judgement = near;
   rr.near_miss.candidate = weak;
   rr.near_miss.baseline  = none;
