@@ -77,6 +77,74 @@ namespace rectify::stokes
         MatDestroy(&preconditioner);
       }
     };
+    /// The solver's defaults, each unless PETSC_OPTIONS gives it: the
+    /// velocity block's one BoomerAMG V-cycle, the Schur split's
+    /// preconditioner, the gap Laplacian's AMG.
+    void set_default_options()
+    {
+      const std::vector<std::pair<const char *, const char *>> defaults{
+        {"-rectify_fieldsplit_u_ksp_type", "preonly"},
+        {"-rectify_fieldsplit_u_pc_type", "hypre"},
+        {"-rectify_fieldsplit_u_pc_hypre_type", "boomeramg"},
+        // 0.7: the gap's flat cells couple far more strongly across it
+        {"-rectify_fieldsplit_u_pc_hypre_boomeramg_strong_threshold", "0.7"},
+        // Chebyshev smoothing: half the V-cycle's time of hybrid SOR/Jacobi
+        {"-rectify_fieldsplit_u_pc_hypre_boomeramg_relax_type_all", "Chebyshev"},
+        // cheap 3D hierarchies: aggressive coarsening, sparse interpolation
+        {"-rectify_fieldsplit_u_pc_hypre_boomeramg_coarsen_type", "HMIS"},
+        {"-rectify_fieldsplit_u_pc_hypre_boomeramg_interp_type", "ext+i"},
+        {"-rectify_fieldsplit_u_pc_hypre_boomeramg_P_max", "4"},
+        {"-rectify_fieldsplit_u_pc_hypre_boomeramg_agg_nl", "1"},
+        {"-rectify_fieldsplit_p_ksp_type", "preonly"},
+        // "gap": replaced after set-up (Jacobi takes 1 for the system's zero
+        // pressure block meanwhile); the defaults persist, so they are the
+        // same for both choices
+        {"-rectify_fieldsplit_p_pc_type", "jacobi"},
+        {"-rectify_gap_pc_hypre_boomeramg_strong_threshold", "0.5"},
+        {"-rectify_gap_pc_hypre_boomeramg_coarsen_type", "HMIS"},
+        {"-rectify_gap_pc_hypre_boomeramg_interp_type", "ext+i"},
+        {"-rectify_gap_pc_hypre_boomeramg_P_max", "4"}};
+      for (const auto &[key, value] : defaults)
+        {
+          PetscBool given = PETSC_FALSE; // PETSC_OPTIONS may override each default
+          check_petsc(PetscOptionsHasName(nullptr, nullptr, key, &given), "PetscOptionsHasName");
+          if (!given)
+            check_petsc(PetscOptionsSetValue(nullptr, key, value), "PetscOptionsSetValue");
+        }
+    }
+
+    /// "gap": the field split exists after set-up; then its Schur solver's
+    /// preconditioner becomes the sum of the two inverses (GapSchur).
+    void set_up_gap_schur(KSP ksp, PC pc, const Objects &o, Mat pressure_mass, Mat gap_laplace, MPI_Comm comm,
+                          GapSchur &gap)
+    {
+      check_petsc(KSPSetUp(ksp), "KSPSetUp");
+      KSP     *sub   = nullptr;
+      PetscInt n_sub = 0;
+      check_petsc(PCFieldSplitGetSubKSP(pc, &n_sub, &sub), "PCFieldSplitGetSubKSP");
+      KSP schur_ksp = sub[1];
+      PetscFree(sub);
+      check_petsc(MatCreateSubMatrix(gap_laplace, o.p, o.p, MAT_INITIAL_MATRIX, &gap.block), "MatCreateSubMatrix");
+      check_petsc(MatCreateSubMatrix(pressure_mass, o.p, o.p, MAT_INITIAL_MATRIX, &gap.mass_block),
+                  "MatCreateSubMatrix");
+      check_petsc(PCCreate(comm, &gap.mass), "PCCreate");
+      check_petsc(PCSetType(gap.mass, PCJACOBI), "PCSetType");
+      check_petsc(PCSetOperators(gap.mass, gap.mass_block, gap.mass_block), "PCSetOperators");
+      check_petsc(PCSetUp(gap.mass), "PCSetUp (mass)");
+      check_petsc(PCCreate(comm, &gap.laplace), "PCCreate");
+      check_petsc(PCSetOptionsPrefix(gap.laplace, "rectify_gap_"), "PCSetOptionsPrefix");
+      check_petsc(PCSetType(gap.laplace, PCHYPRE), "PCSetType");
+      check_petsc(PCHYPRESetType(gap.laplace, "boomeramg"), "PCHYPRESetType");
+      check_petsc(PCSetOperators(gap.laplace, gap.block, gap.block), "PCSetOperators");
+      check_petsc(PCSetFromOptions(gap.laplace), "PCSetFromOptions");
+      check_petsc(PCSetUp(gap.laplace), "PCSetUp (gap Laplacian)");
+      check_petsc(MatCreateVecs(gap.block, &gap.work, nullptr), "MatCreateVecs");
+      PC schur_pc;
+      check_petsc(KSPGetPC(schur_ksp, &schur_pc), "KSPGetPC");
+      check_petsc(PCSetType(schur_pc, PCSHELL), "PCSetType (shell)");
+      check_petsc(PCShellSetContext(schur_pc, &gap), "PCShellSetContext");
+      check_petsc(PCShellSetApply(schur_pc, apply_gap_schur), "PCShellSetApply");
+    }
   } // namespace
 
   std::string block_solver_name(bool gap_schur)
@@ -122,68 +190,11 @@ namespace rectify::stokes
     check_petsc(PCFieldSplitSetType(pc, PC_COMPOSITE_SCHUR), "PCFieldSplitSetType");
     check_petsc(PCFieldSplitSetSchurFactType(pc, PC_FIELDSPLIT_SCHUR_FACT_UPPER), "SchurFactType");
     check_petsc(PCFieldSplitSetSchurPre(pc, PC_FIELDSPLIT_SCHUR_PRE_A11, nullptr), "SchurPre");
-    const std::vector<std::pair<const char *, const char *>> defaults{
-      {"-rectify_fieldsplit_u_ksp_type", "preonly"},
-      {"-rectify_fieldsplit_u_pc_type", "hypre"},
-      {"-rectify_fieldsplit_u_pc_hypre_type", "boomeramg"},
-      // 0.7: the gap's flat cells couple far more strongly across it
-      {"-rectify_fieldsplit_u_pc_hypre_boomeramg_strong_threshold", "0.7"},
-      // Chebyshev smoothing: half the V-cycle's time of hybrid SOR/Jacobi
-      {"-rectify_fieldsplit_u_pc_hypre_boomeramg_relax_type_all", "Chebyshev"},
-      // cheap 3D hierarchies: aggressive coarsening, sparse interpolation
-      {"-rectify_fieldsplit_u_pc_hypre_boomeramg_coarsen_type", "HMIS"},
-      {"-rectify_fieldsplit_u_pc_hypre_boomeramg_interp_type", "ext+i"},
-      {"-rectify_fieldsplit_u_pc_hypre_boomeramg_P_max", "4"},
-      {"-rectify_fieldsplit_u_pc_hypre_boomeramg_agg_nl", "1"},
-      {"-rectify_fieldsplit_p_ksp_type", "preonly"},
-      // "gap": replaced after set-up (Jacobi takes 1 for the system's zero
-      // pressure block meanwhile); the defaults persist, so they are the
-      // same for both choices
-      {"-rectify_fieldsplit_p_pc_type", "jacobi"},
-      {"-rectify_gap_pc_hypre_boomeramg_strong_threshold", "0.5"},
-      {"-rectify_gap_pc_hypre_boomeramg_coarsen_type", "HMIS"},
-      {"-rectify_gap_pc_hypre_boomeramg_interp_type", "ext+i"},
-      {"-rectify_gap_pc_hypre_boomeramg_P_max", "4"}};
-    for (const auto &[key, value] : defaults)
-      {
-        PetscBool given = PETSC_FALSE; // PETSC_OPTIONS may override each default
-        check_petsc(PetscOptionsHasName(nullptr, nullptr, key, &given), "PetscOptionsHasName");
-        if (!given)
-          check_petsc(PetscOptionsSetValue(nullptr, key, value), "PetscOptionsSetValue");
-      }
+    set_default_options();
     check_petsc(KSPSetFromOptions(o.ksp), "KSPSetFromOptions");
     GapSchur gap;
     if (gap_laplace != nullptr)
-      {
-        // The field split exists after set-up; then its Schur solver's
-        // preconditioner becomes the sum of the two inverses.
-        check_petsc(KSPSetUp(o.ksp), "KSPSetUp");
-        KSP     *sub   = nullptr;
-        PetscInt n_sub = 0;
-        check_petsc(PCFieldSplitGetSubKSP(pc, &n_sub, &sub), "PCFieldSplitGetSubKSP");
-        KSP schur_ksp = sub[1];
-        PetscFree(sub);
-        check_petsc(MatCreateSubMatrix(gap_laplace, o.p, o.p, MAT_INITIAL_MATRIX, &gap.block), "MatCreateSubMatrix");
-        check_petsc(MatCreateSubMatrix(pressure_mass, o.p, o.p, MAT_INITIAL_MATRIX, &gap.mass_block),
-                    "MatCreateSubMatrix");
-        check_petsc(PCCreate(comm, &gap.mass), "PCCreate");
-        check_petsc(PCSetType(gap.mass, PCJACOBI), "PCSetType");
-        check_petsc(PCSetOperators(gap.mass, gap.mass_block, gap.mass_block), "PCSetOperators");
-        check_petsc(PCSetUp(gap.mass), "PCSetUp (mass)");
-        check_petsc(PCCreate(comm, &gap.laplace), "PCCreate");
-        check_petsc(PCSetOptionsPrefix(gap.laplace, "rectify_gap_"), "PCSetOptionsPrefix");
-        check_petsc(PCSetType(gap.laplace, PCHYPRE), "PCSetType");
-        check_petsc(PCHYPRESetType(gap.laplace, "boomeramg"), "PCHYPRESetType");
-        check_petsc(PCSetOperators(gap.laplace, gap.block, gap.block), "PCSetOperators");
-        check_petsc(PCSetFromOptions(gap.laplace), "PCSetFromOptions");
-        check_petsc(PCSetUp(gap.laplace), "PCSetUp (gap Laplacian)");
-        check_petsc(MatCreateVecs(gap.block, &gap.work, nullptr), "MatCreateVecs");
-        PC schur_pc;
-        check_petsc(KSPGetPC(schur_ksp, &schur_pc), "KSPGetPC");
-        check_petsc(PCSetType(schur_pc, PCSHELL), "PCSetType (shell)");
-        check_petsc(PCShellSetContext(schur_pc, &gap), "PCShellSetContext");
-        check_petsc(PCShellSetApply(schur_pc, apply_gap_schur), "PCShellSetApply");
-      }
+      set_up_gap_schur(o.ksp, pc, o, pressure_mass, gap_laplace, comm, gap);
     double initial_norm = 1;
     if (settings.verbose && rank == 0)
       check_petsc(KSPMonitorSet(o.ksp, report_progress, &initial_norm, nullptr), "KSPMonitorSet");
