@@ -503,6 +503,9 @@ namespace rectify::stokes
     private:
       void          make_grid();
       void          setup_system();
+      void          set_boundary_values();
+      void          make_all_constraints();
+      void          make_matrices_and_vectors();
       void          assemble_system(const PETScWrappers::MPI::Vector *state, bool with_gap_laplace);
       double        gap_weight(const DoFHandler<3>::active_cell_iterator &cell) const;
       void          solve(bool with_motion, bool with_exchange);
@@ -661,8 +664,27 @@ namespace rectify::stokes
       result_.n_pressure_dofs = Utilities::MPI::sum(owned_pressure_.n_elements(), comm_);
       result_.n_velocity_dofs = result_.n_dofs - result_.n_pressure_dofs;
 
-      // Boundary values: no slip on walls and reed first, then each port's
-      // profile on what is left (its rim stays at zero), scaled to unit flux.
+      set_boundary_values();
+      make_all_constraints();
+      make_matrices_and_vectors();
+
+      double volume = 0;
+      for (std::size_t c = 0; c < mesh_.cells.size(); ++c)
+        volume += mesher::cell_volume(mesh_, c);
+      sigma_ = mu_ / std::cbrt(volume / static_cast<double>(mesh_.cells.size()));
+
+      result_.setup_time_s = seconds_since(start_);
+      lap("flow: set-up");
+      if (verbose_ && root_)
+        std::fprintf(stderr, "  %zu DoFs (%zu velocity, %zu pressure) on %u process(es)\n", result_.n_dofs,
+                     result_.n_velocity_dofs, result_.n_pressure_dofs, n_processes_);
+    }
+
+    // Boundary values: no slip on walls and reed first, then each port's
+    // profile on what is left (its rim stays at zero), scaled to unit flux;
+    // with a moving reed, its velocity where it is not a fixed wall's DoF.
+    void StokesProblem::set_boundary_values()
+    {
       std::map<types::global_dof_index, double>         wall_values;
       std::map<types::boundary_id, const Function<3> *> wall_functions;
       const Functions::ZeroFunction<3>                  zero(4);
@@ -707,7 +729,12 @@ namespace rectify::stokes
         }
       inlet_lift_.reinit(owned_, relevant_, comm_);
       inlet_lift_ = port_lift_[0];
+    }
 
+    // The flow's constraints, the ports' exchange problems' and the moving
+    // reed's, with their vectors.
+    void StokesProblem::make_all_constraints()
+    {
       // All the flow through port 0 at first: several ports share it once
       // each exchange solve is known (split_flow).
       std::vector<double> weights(ports_.size(), 0.0);
@@ -730,7 +757,13 @@ namespace rectify::stokes
           motion_rhs_.reinit(owned_, comm_);
           motion_solution_.reinit(owned_, comm_);
         }
+    }
 
+    // The sparsity patterns and matrices (the system's; the pressure
+    // block's for the Schur preconditioner), the gap Laplacian's outlet
+    // constraint and its geometry, the solution vectors.
+    void StokesProblem::make_matrices_and_vectors()
+    {
       // Velocity components couple only with themselves (the Laplacian form)
       // and with the pressure; leaving the zero blocks out of the pattern
       // keeps them out of the AMG hierarchy and the direct solver's factors.
@@ -763,6 +796,7 @@ namespace rectify::stokes
         }
       if (gap_schur_)
         {
+          const Functions::ZeroFunction<3> zero(4);
           // The gap Laplacian vanishes on the outlet's pressure DoFs, where
           // the traction fixes the pressure.
           std::map<types::global_dof_index, double> outlet_values;
@@ -779,17 +813,6 @@ namespace rectify::stokes
       solution_.reinit(owned_, comm_);
       physical_solution_.reinit(owned_, relevant_, comm_);
       state_.reinit(owned_, relevant_, comm_);
-
-      double volume = 0;
-      for (std::size_t c = 0; c < mesh_.cells.size(); ++c)
-        volume += mesher::cell_volume(mesh_, c);
-      sigma_ = mu_ / std::cbrt(volume / static_cast<double>(mesh_.cells.size()));
-
-      result_.setup_time_s = seconds_since(start_);
-      lap("flow: set-up");
-      if (verbose_ && root_)
-        std::fprintf(stderr, "  %zu DoFs (%zu velocity, %zu pressure) on %u process(es)\n", result_.n_dofs,
-                     result_.n_velocity_dofs, result_.n_pressure_dofs, n_processes_);
     }
 
     // No slip on walls and reed (the reed's motion with `reed_moves`), and
