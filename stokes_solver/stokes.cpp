@@ -220,15 +220,10 @@ namespace rectify::stokes
       std::shared_ptr<const DuctProfile> duct; ///< not round
     };
 
-    /// The inlet's patches, in the order of their first face. A patch is
-    /// round if its rim has at least 12 corners (vertices not on a straight
-    /// stretch of it) and all lie on one circle within 1e-6 of its radius
-    /// (least squares); the mesher's round ports do (their polygons'
-    /// vertices are on the circle; the triangulation adds points along the
-    /// polygon's edges).
-    std::vector<InletPort> inlet_ports(const mesher::TetMesh &m)
+    /// The mesh's inlet faces grouped into patches (union-find over their
+    /// shared vertices), in the order of their first face.
+    std::vector<std::vector<std::size_t>> inlet_patches(const mesher::TetMesh &m)
     {
-      // Union-find of the inlet faces over their shared vertices.
       std::vector<std::size_t>                  faces;
       std::map<std::uint32_t, std::size_t>      first_face_of_vertex;
       std::vector<std::size_t>                  parent;
@@ -261,7 +256,73 @@ namespace rectify::stokes
             patches.emplace_back();
           patches[it->second].push_back(faces[k]);
         }
+      return patches;
+    }
 
+    /// A patch's rim corners: its boundary edges' vertices (edges used once)
+    /// but those on a straight stretch (a triangulation's points along a
+    /// polygon's edge).
+    std::vector<std::size_t> rim_corners(const std::vector<DuctProfile::Point2> &points,
+                                         const std::map<std::pair<std::size_t, std::size_t>, unsigned> &edges)
+    {
+      std::map<std::size_t, std::vector<std::size_t>> rim_neighbours;
+      for (const auto &[e, count] : edges)
+        if (count == 1)
+          {
+            rim_neighbours[e.first].push_back(e.second);
+            rim_neighbours[e.second].push_back(e.first);
+          }
+      std::vector<std::size_t> rim;
+      for (const auto &[v, nb] : rim_neighbours)
+        {
+          if (nb.size() == 2)
+            {
+              const auto  &p = points[v], &a = points[nb[0]], &b = points[nb[1]];
+              const double ux = p[0] - a[0], uy = p[1] - a[1], wx = b[0] - p[0], wy = b[1] - p[1];
+              if (std::abs(ux * wy - uy * wx) <= 1e-9 * std::hypot(ux, uy) * std::hypot(wx, wy))
+                continue;
+            }
+          rim.push_back(v);
+        }
+      return rim;
+    }
+
+    /// At least 12 rim corners, all on one circle within 1e-6 of its radius
+    /// (least squares: u^2 + v^2 + D u + E v + F = 0, Kasa's fit).
+    bool on_one_circle(const std::vector<DuctProfile::Point2> &points, const std::vector<std::size_t> &rim)
+    {
+      if (rim.size() < 12)
+        return false;
+      FullMatrix<double> A(3, 3);
+      Vector<double>     rhs(3), x(3);
+      for (const auto r : rim)
+        {
+          const double u = points[r][0], v = points[r][1], row[3] = {u, v, 1.0};
+          for (int i = 0; i < 3; ++i)
+            {
+              rhs(i) -= (u * u + v * v) * row[i];
+              for (int j = 0; j < 3; ++j)
+                A(i, j) += row[i] * row[j];
+            }
+        }
+      A.gauss_jordan();
+      A.vmult(x, rhs);
+      const double uc = -x(0) / 2, vc = -x(1) / 2, radius = std::sqrt(uc * uc + vc * vc - x(2));
+      double       worst = 0;
+      for (const auto r : rim)
+        worst = std::max(worst, std::abs(std::hypot(points[r][0] - uc, points[r][1] - vc) - radius));
+      return std::isfinite(radius) && worst <= 1e-6 * radius;
+    }
+
+    /// The inlet's patches, in the order of their first face. A patch is
+    /// round if its rim has at least 12 corners (vertices not on a straight
+    /// stretch of it) and all lie on one circle within 1e-6 of its radius
+    /// (least squares); the mesher's round ports do (their polygons'
+    /// vertices are on the circle; the triangulation adds points along the
+    /// polygon's edges).
+    std::vector<InletPort> inlet_ports(const mesher::TetMesh &m)
+    {
+      const auto patches = inlet_patches(m);
       std::vector<InletPort> ports;
       for (const auto &patch : patches)
         {
@@ -299,50 +360,8 @@ namespace rectify::stokes
               const auto &a = points[t[0]], &b = points[t[1]], &c = points[t[2]];
               port.area += 0.5 * std::abs((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]));
             }
-          // The rim's corners: its vertices but those on a straight stretch
-          // (a triangulation's points along a polygon's edge).
-          std::map<std::size_t, std::vector<std::size_t>> rim_neighbours;
-          for (const auto &[e, count] : edges)
-            if (count == 1)
-              {
-                rim_neighbours[e.first].push_back(e.second);
-                rim_neighbours[e.second].push_back(e.first);
-              }
-          std::vector<std::size_t> rim;
-          for (const auto &[v, nb] : rim_neighbours)
-            {
-              if (nb.size() == 2)
-                {
-                  const auto  &p = points[v], &a = points[nb[0]], &b = points[nb[1]];
-                  const double ux = p[0] - a[0], uy = p[1] - a[1], wx = b[0] - p[0], wy = b[1] - p[1];
-                  if (std::abs(ux * wy - uy * wx) <= 1e-9 * std::hypot(ux, uy) * std::hypot(wx, wy))
-                    continue;
-                }
-              rim.push_back(v);
-            }
-          if (rim.size() >= 12)
-            {
-              // Least squares: u^2 + v^2 + D u + E v + F = 0 (Kasa's fit).
-              FullMatrix<double> A(3, 3);
-              Vector<double>     rhs(3), x(3);
-              for (const auto r : rim)
-                {
-                  const double u = points[r][0], v = points[r][1], row[3] = {u, v, 1.0};
-                  for (int i = 0; i < 3; ++i)
-                    {
-                      rhs(i) -= (u * u + v * v) * row[i];
-                      for (int j = 0; j < 3; ++j)
-                        A(i, j) += row[i] * row[j];
-                    }
-                }
-              A.gauss_jordan();
-              A.vmult(x, rhs);
-              const double uc = -x(0) / 2, vc = -x(1) / 2, radius = std::sqrt(uc * uc + vc * vc - x(2));
-              double       worst = 0;
-              for (const auto r : rim)
-                worst = std::max(worst, std::abs(std::hypot(points[r][0] - uc, points[r][1] - vc) - radius));
-              port.round = std::isfinite(radius) && worst <= 1e-6 * radius;
-            }
+          const auto rim = rim_corners(points, edges);
+          port.round = on_one_circle(points, rim);
           if (!port.round)
             port.duct = std::make_shared<const DuctProfile>(std::move(points), triangles);
           ports.push_back(std::move(port));
