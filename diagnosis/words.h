@@ -1,7 +1,11 @@
 // The diagnosis's words, the report's part (report.h, summary_json.cpp, the
-// command's answer and its progress lines): the naming's reasons, the
-// verdict's sentence and the trends over the runs, composed from the
-// results (results.h), which hold numbers, enums and names only.
+// command's answer and its progress lines): every sentence a diagnosis
+// writes -- the naming's reasons, the verdict, the trends over the runs, the
+// named parameters' uncertainty, each baseline parameter's standing, the
+// runs' settling and band, a search's and a ringing start's ways, the
+// residuals signal by signal (residual_words.cpp) -- composed from the
+// results (results.h, runs.h, residuals.h), which hold numbers, enums and
+// names only.
 #pragma once
 
 #include <string>
