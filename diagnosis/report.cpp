@@ -17,6 +17,12 @@ namespace rectify::diagnosis
 {
   namespace
   {
+    /// `words` between `before` and `after`, or nothing where it is empty.
+    std::string wrapped(const char *before, const std::string &words, const char *after)
+    {
+      return words.empty() ? std::string() : before + words + after;
+    }
+
     std::string sci(double v)
     {
       char buf[32];
@@ -81,7 +87,7 @@ namespace rectify::diagnosis
                                 "no such effect, determined at this effect's settled fit"
                               : "held at the baseline fit, determined at this effect's fit") +
               " (standard error " + sci(b.sd_unit) + " of its range" +
-              (standing_words(b).empty() ? "" : "; " + standing_words(b)) + "); refitted from the case's " + sci(b.nominal) +
+              wrapped("; ", standing_words(b), "") + "); refitted from the case's " + sci(b.nominal) +
               " to " + sci(rr.baseline.count(b.name) ? rr.baseline.at(b.name) : b.value) + "\n";
       for (const auto &b : rr.left_out)
         md += "- `" + b.name + "`, which the case leaves out (0), tried on at this effect's settled fit: " +
@@ -398,7 +404,7 @@ namespace rectify::diagnosis
           md += "| `" + rc.run.source + "` | " + to_string(rc.start) +
                 (rc.start_revisions.empty() ? "" : " (" + start_revision_words(rc) + ")") + " | " +
                 (scores.empty() ? "-" : scores) + " | " + std::to_string(rc.n_skip) +
-                (settling_words(rc).empty() ? "" : " (" + settling_words(rc) + ")") + " | " +
+                wrapped(" (", settling_words(rc), ")") + " | " +
                 (spikes.empty() ? "none" : spikes) + " | " +
                 (rc.band_Hz > 0 ? "within " + format_number(rc.harmonics) + " harmonics (to " +
                                     format_number(std::round(rc.band_Hz)) + " Hz; " + band_words(rc) + ")" :

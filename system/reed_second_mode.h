@@ -58,7 +58,7 @@ namespace rectify::system
     }
     double stress_rate(std::size_t v, std::span<const double> y, double first_per_opening) const
     {
-      return first_per_opening * y[first(v)+ 1] + stress_ * y[x_state(v) + 1];
+      return first_per_opening * y[first(v) + 1] + stress_ * y[x_state(v) + 1];
     }
 
     /// The reaction of a seat (or stop) holding the tip of valve v under the
